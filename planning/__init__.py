@@ -1,0 +1,1 @@
+"""PDDL domains compiled into a fast grounded simulator, and the searches that use it."""
