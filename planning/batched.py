@@ -35,16 +35,28 @@ class BatchedModel:
         self.add = arr([o.add for o in effects])
         self.keep = ~arr([o.dele for o in effects])
         self.cost = np.array(model.action_cost, dtype=np.int64)
+        # Conditional effects, kept only for the actions that have any.
+        self.cond_actions = np.array([a for a, o in enumerate(effects) if o.cond], dtype=np.int64)
+        self.has_cond = np.zeros(model.n_actions, dtype=bool)
+        self.has_cond[self.cond_actions] = True
         C = max((len(o.cond) for o in effects), default=0)
-        self.n_cond = C
         if C:
             pad = lambda o, k: [c[k] for c in o.cond] + [0] * (C - len(o.cond))
             self.cond = [np.array([[_words(m, W) for m in pad(o, k)] for o in effects], dtype=np.uint64)
                          for k in range(4)]    # pos, neg, add, dele: (A, C, W) each
-        # Variants of multi-variant actions are OR-ed into their action's column.
-        self._single = np.array([v for v, a in enumerate(model.op_action)
-                                 if model.op_action.count(a) == 1], dtype=np.int64)
-        self._multi = [v for v in range(len(model.ops)) if v not in set(self._single.tolist())]
+        # A state may satisfy two variants of one action: keep the first only.
+        first_variant: dict[int, int] = {}
+        self._later = []   # (variant, first variant of its action)
+        for v, a in enumerate(model.op_action):
+            if a in first_variant:
+                self._later.append((v, first_variant[a]))
+            else:
+                first_variant[a] = v
+        self._neg_words = [w for w in range(W) if self.pre_neg[:, w].any()]
+        # successors() tests each variant only on the states where its trigger
+        # atom holds (the same index as Model.successors uses).
+        self._groups = [(t, np.array(vs, dtype=np.int64)) for t, vs in model.trigger_groups().items()]
+        self._first_of = {v: f for v, f in self._later}
 
     # ---- packing ---------------------------------------------------------
     def pack(self, states) -> np.ndarray:
@@ -67,18 +79,34 @@ class BatchedModel:
         return np.unpackbits(bytes_, axis=1, bitorder="little")[:, : self.model.n_atoms]
 
     # ---- simulation ------------------------------------------------------
-    def applicable(self, batch: np.ndarray) -> np.ndarray:
-        """(N, A) bool: which ground actions apply in each state."""
-        ok = np.ones((batch.shape[0], len(self.op_action)), dtype=bool)
+    def _violations(self, batch: np.ndarray, variants=None) -> np.ndarray:
+        """(N, V) uint64, zero where the variant's precondition holds in the state."""
+        pos = self.pre_pos if variants is None else self.pre_pos[variants]
+        neg = self.pre_neg if variants is None else self.pre_neg[variants]
+        violated = np.zeros((batch.shape[0], pos.shape[0]), dtype=np.uint64)
+        tmp = np.empty_like(violated)
         for w in range(self.n_words):
             s = batch[:, w, None]
-            p, n = self.pre_pos[None, :, w], self.pre_neg[None, :, w]
-            ok &= (s & p) == p
-            ok &= (s & n) == 0
+            np.bitwise_and(~s, pos[None, :, w], out=tmp)   # required but false
+            violated |= tmp
+            if w in self._neg_words:
+                np.bitwise_and(s, neg[None, :, w], out=tmp)  # forbidden but true
+                violated |= tmp
+        return violated
+
+    def _applicable_variants(self, batch: np.ndarray) -> np.ndarray:
+        """(N, V) bool: which variants apply, at most one per action and state."""
+        ok = self._violations(batch) == 0
+        for v, first in self._later:
+            ok[:, v] &= ~ok[:, first]
+        return ok
+
+    def applicable(self, batch: np.ndarray) -> np.ndarray:
+        """(N, A) bool: which ground actions apply in each state."""
+        ok = self._applicable_variants(batch)
         out = np.zeros((batch.shape[0], self.model.n_actions), dtype=bool)
-        out[:, self.op_action[self._single]] = ok[:, self._single]
-        for v in self._multi:
-            out[:, self.op_action[v]] |= ok[:, v]
+        rows, variants = np.nonzero(ok)
+        out[rows, self.op_action[variants]] = True
         return out
 
     def step(self, batch: np.ndarray, actions: np.ndarray, check: bool = True):
@@ -93,16 +121,36 @@ class BatchedModel:
 
     def successors(self, batch: np.ndarray):
         """Every applicable transition: (parent index, action, next state, cost) arrays."""
-        parent, action = np.nonzero(self.applicable(batch))
+        bits = self.to_bits(batch).T.copy()              # (atoms, N): a row per atom
+        parents, variants = [], []
+        for trigger, vs in self._groups:
+            rows = np.flatnonzero(bits[trigger]) if trigger >= 0 else np.arange(len(batch))
+            if not len(rows):
+                continue
+            r, v = np.nonzero(self._violations(batch[rows], vs) == 0)
+            parents.append(rows[r])
+            variants.append(vs[v])
+        parent = np.concatenate(parents) if parents else np.zeros(0, dtype=np.int64)
+        variant = np.concatenate(variants) if variants else np.zeros(0, dtype=np.int64)
+        if self._later:   # drop a later variant where its action's first variant applies too
+            dup = np.zeros(len(variant), dtype=bool)
+            for v, first in self._later:
+                sel = np.flatnonzero(variant == v)
+                if len(sel):
+                    dup[sel] = self._violations(batch[parent[sel]], np.array([first]))[:, 0] == 0
+            parent, variant = parent[~dup], variant[~dup]
+        action = self.op_action[variant]
         return parent, action, self._apply(batch[parent], action), self.cost[action]
 
     def _apply(self, batch: np.ndarray, actions: np.ndarray) -> np.ndarray:
-        add, keep = self.add[actions], self.keep[actions]
-        if self.n_cond:
-            cpos, cneg, cadd, cdel = (c[actions] for c in self.cond)
-            s = batch[:, None, :]
-            fire = ((s & cpos) == cpos).all(-1) & ((s & cneg) == 0).all(-1)
-            fire = fire[..., None]
-            add = add | np.bitwise_or.reduce(np.where(fire, cadd, 0), axis=1)
-            keep = keep & ~np.bitwise_or.reduce(np.where(fire, cdel, 0), axis=1)
-        return (batch & keep) | add
+        out = (batch & self.keep[actions]) | self.add[actions]
+        if len(self.cond_actions):
+            rows = np.flatnonzero(self.has_cond[actions])
+            if len(rows):
+                a, s = actions[rows], batch[rows][:, None, :]
+                cpos, cneg, cadd, cdel = (c[a] for c in self.cond)
+                fire = (((s & cpos) == cpos).all(-1) & ((s & cneg) == 0).all(-1))[..., None]
+                add = np.bitwise_or.reduce(np.where(fire, cadd, 0), axis=1)
+                dele = np.bitwise_or.reduce(np.where(fire, cdel, 0), axis=1)
+                out[rows] = (out[rows] & ~dele) | add
+        return out

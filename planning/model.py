@@ -123,6 +123,10 @@ class Model:
         return self.action_index[key]
 
     # ---- the simulator ---------------------------------------------------
+    def trigger_groups(self) -> dict:
+        """{trigger atom (-1: none): [variants]}: the index successors() uses."""
+        return {t: list(vs) for t, vs in self._trigger_variants.items()}
+
     def _build_successor_index(self) -> None:
         # Index each variant under its precondition atom of the predicate with the
         # most ground atoms (rarely true), so successors() tests few candidates.
@@ -132,6 +136,7 @@ class Model:
         self._triggers: dict[int, list] = {}
         self._always: list = []
         self._variants_of: list[list] = [[] for _ in self.actions]
+        self._trigger_variants: dict[int, list] = {}
         multi = {a for a in self.op_action if self.op_action.count(a) > 1}
         for v, (op, a) in enumerate(zip(self.ops, self.op_action)):
             entry = (op.pos, op.neg, op.add, op.dele, op.cond, a, self.action_cost[a], a in multi)
@@ -139,9 +144,11 @@ class Model:
             bits = [i for i in range(op.pos.bit_length()) if op.pos >> i & 1]
             if not bits:
                 self._always.append(entry)
+                self._trigger_variants.setdefault(-1, []).append(v)
                 continue
             best = max(bits, key=lambda i: (per_pred[self.atoms[i][0]], -i))
             self._triggers.setdefault(best, []).append(entry)
+            self._trigger_variants.setdefault(best, []).append(v)
         self._trigger_bits = sorted(self._triggers)
 
     def successors(self, state: int) -> list[tuple[int, int, int]]:

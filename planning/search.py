@@ -1,0 +1,49 @@
+"""Exact in-process search on the compiled model."""
+from __future__ import annotations
+
+import heapq
+from dataclasses import dataclass
+
+
+@dataclass
+class SearchResult:
+    plan: list | None          # ground action indices; None if no plan exists
+    cost: int | None
+    expansions: int
+
+
+def uniform_cost_search(model, state: int, task, max_expansions: int | None = None) -> SearchResult:
+    """An optimal plan for one task by uniform-cost search (A* with h = 0, as the myopic oracle).
+
+    Duplicate detection on states; a state is expanded at most once, at its
+    optimal g, so the first goal state popped gives the optimal cost.
+    """
+    if task.satisfied(state):
+        return SearchResult([], 0, 0)
+    best = {state: 0}
+    parent = {state: None}
+    frontier = [(0, 0, state)]
+    tie = 0
+    expansions = 0
+    successors = model.successors
+    while frontier:
+        g, _, s = heapq.heappop(frontier)
+        if g > best[s]:
+            continue
+        if task.satisfied(s):
+            plan = []
+            while parent[s] is not None:
+                s, a = parent[s]
+                plan.append(a)
+            return SearchResult(plan[::-1], g, expansions)
+        expansions += 1
+        if max_expansions is not None and expansions > max_expansions:
+            break
+        for a, t, c in successors(s):
+            g2 = g + c
+            if g2 < best.get(t, g2 + 1):
+                best[t] = g2
+                parent[t] = (s, a)
+                tie += 1
+                heapq.heappush(frontier, (g2, tie, t))
+    return SearchResult(None, None, expansions)
