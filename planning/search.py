@@ -4,12 +4,15 @@ from __future__ import annotations
 import heapq
 from dataclasses import dataclass
 
+import numpy as np
+
 
 @dataclass
 class SearchResult:
     plan: list | None          # ground action indices; None if no plan exists
     cost: int | None
     expansions: int
+    complete: bool = True      # False if a limit stopped the search before a verdict
 
 
 def uniform_cost_search(model, state: int, task, max_expansions: int | None = None) -> SearchResult:
@@ -47,3 +50,26 @@ def uniform_cost_search(model, state: int, task, max_expansions: int | None = No
                 tie += 1
                 heapq.heappush(frontier, (g2, tie, t))
     return SearchResult(None, None, expansions)
+
+
+def optimal_plan(bm, state: int, task, max_states: int | None = None,
+                 time_limit: float | None = None, hmax=None) -> SearchResult:
+    """An optimal plan for one task: A* with h_max, expanding each f-level in one numpy call.
+
+    The same cost as uniform_cost_search, many times faster. plan is None if no
+    plan exists (complete=True) or a limit stopped the search (complete=False).
+    Pass `hmax` (an HMax of the same model) to reuse its tables across calls.
+    """
+    from .heuristics import HMax, goal_literals
+    from .levels import CostLevels, goal_arrays, satisfied
+
+    hmax = hmax or HMax(bm.model, bm)
+    conjs = goal_literals(bm.model, task)
+    pos, neg = goal_arrays(bm, task)
+    levels = CostLevels(bm, state, max_states, time_limit, heuristic=lambda b: hmax(b, conjs))
+    for _, rows, ids, g in levels:
+        hit = np.flatnonzero(satisfied(rows, pos, neg))
+        if len(hit):
+            i = hit[np.argmin(g[hit])]
+            return SearchResult(levels.plan_to(int(ids[i])), int(g[i]), levels.closed, True)
+    return SearchResult(None, None, levels.closed, levels.exhausted)

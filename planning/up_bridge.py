@@ -33,7 +33,8 @@ def _define_unset_numbers(problem) -> None:
     """
     em = problem.environment.expression_manager
     defined = problem.explicit_initial_values
-    for fluent in problem.fluents:
+    tables = {e.fluent() for e in defined if e.is_fluent_exp() and e.fluent().signature}
+    for fluent in tables:
         if not fluent.type.is_real_type() and not fluent.type.is_int_type():
             continue
         for values in _tuples([list(problem.objects(p.type)) for p in fluent.signature]):

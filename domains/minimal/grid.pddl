@@ -9,6 +9,7 @@
   (:init
     (robot-at x2y2) (hand-free)
     (at apple c)
+    (= (total-cost) 0)
     (receptacle a) (receptacle b) (receptacle c)
     (adjacent a x1y0) (adjacent a x0y1) (adjacent x0y1 x1y1) (adjacent x0y1 x0y2) (adjacent x0y1 a) (adjacent x0y2 x1y2)
     (adjacent x0y2 x0y3) (adjacent x0y2 x0y1) (adjacent x0y3 x1y3) (adjacent x0y3 x0y4) (adjacent x0y3 x0y2) (adjacent x0y4 x1y4)

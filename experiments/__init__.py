@@ -1,0 +1,1 @@
+"""Evaluations, demonstrations and the reproduction of the thesis's tables."""
