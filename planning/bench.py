@@ -8,6 +8,9 @@ must produce the same successors (checked); the ratios are what matter, since
 absolute times on a shared machine are noisy.
 
     python -m planning.bench --domain domains/restaurant --layout three-room --out FILE
+
+With --planner it times our exact planner against Fast Downward instead, on the
+(state, task) pairs the myopic oracle meets along a canonical sequence.
 """
 from __future__ import annotations
 
@@ -100,13 +103,82 @@ def benchmark(model, n_states: int = 300, seed: int = 0, batch: int = 8192,
     }
 
 
+def planner_pairs(model, sequence_id: int, n: int) -> list:
+    """(state, task) pairs met by the myopic oracle along a canonical sequence, auto-completions skipped."""
+    from .heuristics import HMax
+    from .search import optimal_plan
+    from .sequences import load
+    from .task_stream import PersistentWorld
+
+    seq = load(model, [sequence_id])[0]
+    bm = BatchedModel(model)
+    hmax = HMax(model, bm)
+    world = PersistentWorld(model, seq.reset_seed)
+    pairs = []
+    for task in seq.tasks:
+        if world.begin(task):
+            continue
+        pairs.append((world.state, task))
+        for a in optimal_plan(bm, world.state, task, hmax=hmax).plan:
+            world.act(a)
+        if len(pairs) >= n:
+            break
+    return pairs
+
+
+def benchmark_planner(model, sequence_id: int = 0, n: int = 20, time_limit: float = 600.0) -> dict:
+    """Our exact A* against Fast Downward's blind A* on the same (state, task) pairs, with equal costs."""
+    from . import fast_downward as fd
+    from .heuristics import HMax
+    from .search import optimal_plan
+
+    pairs = planner_pairs(model, sequence_id, n)
+    bm = BatchedModel(model)
+    hmax = HMax(model, bm)
+    rows = []
+    for state, task in pairs:
+        t0 = time.perf_counter()
+        ours = optimal_plan(bm, state, task, hmax=hmax)
+        t_ours = time.perf_counter() - t0
+        theirs = fd.solve(model, state, task, time_limit)
+        if ours.cost != theirs.cost:
+            raise AssertionError(f"{task.name}: our cost {ours.cost}, Fast Downward's {theirs.cost}")
+        rows.append({"task": task.name, "cost": ours.cost, "ours_s": round(t_ours, 4),
+                     "fast_downward_s": round(theirs.seconds, 4), "ours_expansions": ours.expansions,
+                     "fast_downward_expansions": theirs.expansions})
+    ours_total = sum(r["ours_s"] for r in rows)
+    fd_total = sum(r["fast_downward_s"] for r in rows)
+    per_call = sorted(r["fast_downward_s"] / max(r["ours_s"], 1e-6) for r in rows)
+    return {"domain": model.name, "layout": model.layout, "sequence": sequence_id, "calls": len(rows),
+            "ours_seconds": round(ours_total, 3), "fast_downward_seconds": round(fd_total, 3),
+            "ratio_total": round(fd_total / ours_total, 2),
+            "ratio_per_call_median": round(per_call[len(per_call) // 2], 2),
+            "ratio_per_call_min": round(per_call[0], 2), "equal_costs": True, "calls_detail": rows}
+
+
 def main() -> None:
     p = cli.parser(__doc__.splitlines()[0])
+    p.add_argument("--planner", action="store_true",
+                   help="benchmark our exact planner against Fast Downward instead of the simulators")
+    p.add_argument("--calls", type=int, default=20, help="planner calls for --planner (default: %(default)s)")
+    p.add_argument("--sequence", type=int, default=0, help="canonical sequence for --planner")
     p.add_argument("--states", type=int, default=300, help="distinct reachable states (default: %(default)s)")
     p.add_argument("--batch", type=int, default=8192, help="batched-step batch size (default: %(default)s)")
     p.add_argument("--seconds", type=float, default=2.0, help="minimum timing per simulator")
     args = p.parse_args()
     model = compile_domain(args.domain, args.layout)
+    if args.planner:
+        r = benchmark_planner(model, args.sequence, args.calls)
+        for c in r["calls_detail"]:
+            print(f"  {c['task']:34s} cost {c['cost']:5d}  ours {c['ours_s']:8.3f}s "
+                  f"({c['ours_expansions']} states)  Fast Downward {c['fast_downward_s']:8.3f}s "
+                  f"({c['fast_downward_expansions']} expanded)")
+        print(f"{r['calls']} calls, equal costs: ours {r['ours_seconds']}s, Fast Downward "
+              f"{r['fast_downward_seconds']}s; ratio total {r['ratio_total']}, per call median "
+              f"{r['ratio_per_call_median']} (min {r['ratio_per_call_min']})")
+        if args.out:
+            write_json(args.out, r)
+        return
     r = benchmark(model, args.states, args.seed, args.batch, args.seconds)
     print(f"{r['domain']} {r['layout']}: {r['states']} states, {r['successors']} successors "
           f"(mean branching {r['mean_branching']})")

@@ -1,0 +1,81 @@
+"""The agent protocol: what every agent implements, and the table the command line looks agents up in.
+
+Two kinds, as in the thesis: a *planner* returns a whole plan for the current
+task (the oracles, the GNN baseline, the value-guided search) and a *policy*
+acts one primitive action at a time (the greedy RL agents). Both may look at
+the tasks still to come in the sequence, which only the clairvoyant oracle does.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class Reply:
+    """A planner's answer for one task: the plan (None if it found none) and what to record."""
+
+    plan: list | None
+    info: dict = field(default_factory=dict)     # e.g. {"status": "solved", "expansions": 1234}
+
+
+class Planner:
+    """Returns a plan per task."""
+
+    name = "planner"
+    config: dict = {}
+
+    def start(self, model, sequence) -> None:
+        """Called before each sequence (the world has just been reset)."""
+
+    def plan(self, state: int, task, upcoming: list) -> Reply:
+        raise NotImplementedError
+
+
+class Policy:
+    """Acts step by step."""
+
+    name = "policy"
+    config: dict = {}
+
+    def start(self, model, sequence) -> None:
+        """Called before each sequence."""
+
+    def act(self, state: int, task) -> int:
+        raise NotImplementedError
+
+
+class RandomPolicy(Policy):
+    """Uniformly random applicable actions: the floor every learned agent must beat."""
+
+    name = "random"
+
+    def __init__(self, seed: int = 0):
+        self.rng = np.random.default_rng(seed)
+        self.config = {"seed": seed}
+
+    def start(self, model, sequence) -> None:
+        self.model = model
+
+    def act(self, state: int, task) -> int:
+        actions = self.model.applicable(state)
+        return int(actions[self.rng.integers(len(actions))])
+
+
+def make_agent(name: str, args) -> Planner | Policy:
+    """The agent registered under a name, built from command-line arguments."""
+    from oracles.myopic import MyopicOracle
+
+    table = {
+        "myopic-oracle": lambda: MyopicOracle(getattr(args, "planner", "fast-downward"),
+                                              getattr(args, "time_limit", 600.0)),
+        "random": lambda: RandomPolicy(getattr(args, "seed", 0)),
+    }
+    if name not in table:
+        from planning.errors import DomainError
+        raise DomainError("--agent", f"unknown agent '{name}' (known: {', '.join(table)})")
+    return table[name]()
+
+
+AGENTS = ("myopic-oracle", "random")

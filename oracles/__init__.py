@@ -1,0 +1,1 @@
+"""Planning references: the myopic, clairvoyant-K and labelling oracles."""

@@ -1,0 +1,85 @@
+"""The myopic oracle (thesis §5.2.2 item 1): each task solved alone, cost-optimally, blind to the next.
+
+The thesis's oracle is Fast Downward's A* with the blind heuristic; `--planner
+internal` uses our exact in-process A* (h_max on the compiled model) instead.
+Both return optimal plans, so a task's cost is the same from the same state;
+where several plans are optimal the two may leave different worlds behind, and
+the sequences then drift apart (the closing table reports both).
+
+    python -m oracles.myopic --layout two-room [--planner internal] [--sequences 0-9]
+"""
+from __future__ import annotations
+
+from experiments.agents import Planner, Reply
+from planning import cli
+from planning import fast_downward as fd
+from planning.batched import BatchedModel
+from planning.compiler import compile_domain
+from planning.heuristics import HMax
+from planning.search import optimal_plan
+
+
+class MyopicOracle(Planner):
+    """Plans the current task optimally with Fast Downward (blind A*) or our A*."""
+
+    name = "myopic-oracle"
+
+    def __init__(self, planner: str = "fast-downward", time_limit: float = 600.0):
+        if planner not in ("fast-downward", "internal"):
+            raise ValueError(f"unknown planner {planner}")
+        self.planner, self.time_limit = planner, time_limit
+        self.config = {"planner": planner, "time_limit": time_limit,
+                       "search": fd.OPTIMAL_CONFIG if planner == "fast-downward" else "astar(hmax) by f-levels"}
+        self._model = None
+
+    def start(self, model, sequence) -> None:
+        if model is not self._model:
+            self._model, self._bm = model, BatchedModel(model)
+            self._hmax = HMax(model, self._bm)
+
+    def plan(self, state: int, task, upcoming: list) -> Reply:
+        if self.planner == "fast-downward":
+            r = fd.solve(self._model, state, task, self.time_limit)
+            info = {"status": r.status.value, "planner_cost": r.cost, "expansions": r.expansions}
+            return Reply(r.plan if r.status == fd.Status.SOLVED else None, info)
+        r = optimal_plan(self._bm, state, task, time_limit=self.time_limit, hmax=self._hmax)
+        status = "solved" if r.plan is not None else ("unsolvable" if r.complete else "out-of-time")
+        return Reply(r.plan, {"status": status, "planner_cost": r.cost, "expansions": r.expansions})
+
+
+def type_table(result: dict) -> str:
+    """Cost per task, actions per task, success rate and seconds, by task type and overall."""
+    rows = result["per_task"]
+    groups: dict[str, list] = {}
+    for r in rows:
+        groups.setdefault(r["task"].split("(")[0], []).append(r)
+    lines = [f"{'task type':14s} {'tasks':>6s} {'cost/task':>10s} {'actions/task':>13s} "
+             f"{'success':>8s} {'s/task':>8s}"]
+    for name, rs in sorted(groups.items()) + [("all", rows)]:
+        n = len(rs)
+        lines.append(f"{name:14s} {n:6d} {sum(r['cost'] for r in rs) / n:10.1f} "
+                     f"{sum(r['actions'] for r in rs) / n:13.2f} {sum(r['success'] for r in rs) / n:8.3f} "
+                     f"{sum(r['seconds'] for r in rs) / n:8.3f}")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    from experiments.evaluate import evaluate
+
+    p = cli.parser(__doc__.splitlines()[0], sequences=True)
+    p.add_argument("--planner", default="fast-downward", choices=["fast-downward", "internal"])
+    p.add_argument("--time-limit", type=float, default=600.0, help="planner seconds per task (default 600)")
+    args = p.parse_args()
+    model = compile_domain(args.domain, args.layout)
+    agent = MyopicOracle(args.planner, args.time_limit)
+    suffix = "" if args.planner == "fast-downward" else "-internal"
+    out = args.out or f"results/myopic-oracle{suffix}-{model.layout}.json"
+    r = evaluate(model, agent, cli.parse_ids(args.sequences), out)
+    print(f"\nmyopic oracle ({args.planner}), {model.name} {model.layout}, sequences {args.sequences}: "
+          f"{r['tasks']} tasks in {r['wall_seconds']}s")
+    print(type_table(r))
+    print(f"wrote {out}")
+
+
+if __name__ == "__main__":
+    cli.run(main)
