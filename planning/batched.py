@@ -21,9 +21,10 @@ def _words(mask: int, n_words: int) -> list[int]:
 class BatchedModel:
     """Batched applicability, stepping and successor generation over packed states."""
 
-    def __init__(self, model):
+    def __init__(self, model, extra_bits: int = 0):
+        """`extra_bits` reserves room above the atoms (the joint search keeps its stage there)."""
         self.model = model
-        W = self.n_words = max(1, -(-model.n_atoms // WORD))
+        W = self.n_words = max(1, -(-(model.n_atoms + extra_bits) // WORD))
         arr = lambda masks: np.array([_words(m, W) for m in masks], dtype=np.uint64).reshape(len(masks), W)
         self.pre_pos = arr([o.pos for o in model.ops])
         self.pre_neg = arr([o.neg for o in model.ops])
@@ -141,6 +142,16 @@ class BatchedModel:
             parent, variant = parent[~dup], variant[~dup]
         action = self.op_action[variant]
         return parent, action, self._apply(batch[parent], action), self.cost[action]
+
+    def apply_op(self, batch: np.ndarray, op) -> np.ndarray:
+        """One Op (e.g. a task's consumption) applied to every state of a batch."""
+        add, dele = self.pack([op.add])[0], self.pack([op.dele])[0]
+        out = (batch & ~dele) | add
+        for cp, cn, ca, cd in op.cond:
+            cp, cn, ca, cd = (self.pack([m])[0] for m in (cp, cn, ca, cd))
+            fire = ((batch & cp) == cp).all(1) & ((batch & cn) == 0).all(1)
+            out[fire] = (out[fire] & ~cd) | ca
+        return out
 
     def _apply(self, batch: np.ndarray, actions: np.ndarray) -> np.ndarray:
         out = (batch & self.keep[actions]) | self.add[actions]

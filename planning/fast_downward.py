@@ -5,7 +5,10 @@ plan is mapped onto our ground actions and validated by replay in our simulator.
 """
 from __future__ import annotations
 
+import contextlib
+import os
 import re
+import tempfile
 import time
 from dataclasses import dataclass, field
 from enum import Enum
@@ -49,22 +52,40 @@ class PlanResult:
     message: str = ""
 
 
+@contextlib.contextmanager
+def _private_cwd():
+    # Fast Downward's driver writes its translator output to ./output.sas: two
+    # planners sharing a working directory would read each other's tasks.
+    old = os.getcwd()
+    with tempfile.TemporaryDirectory(prefix="fd-") as d:
+        os.chdir(d)
+        try:
+            yield
+        finally:
+            os.chdir(old)
+
+
+def run_planner(problem, search: str = OPTIMAL_CONFIG, time_limit: float = 600.0):
+    """Fast Downward on a unified-planning problem: (UP result, the planner's log text)."""
+    params = {"fast_downward_search_config": search,
+              "fast_downward_search_time_limit": f"{max(1, int(time_limit))}s",
+              "log_level": "info"}
+    with _private_cwd(), OneshotPlanner(name="fast-downward", params=params) as planner:
+        result = planner.solve(problem, timeout=time_limit + 30)
+    return result, "\n".join(m.message for m in result.log_messages or [])
+
+
 def solve(model, state: int, task, time_limit: float = 600.0,
           search: str = OPTIMAL_CONFIG) -> PlanResult:
     """Plan one task from one state with Fast Downward; the plan is replayed in our simulator."""
     start = time.perf_counter()
     problem = up_problem(model, problem_text(model, state, task_goal_text(model, task)))
-    params = {"fast_downward_search_config": search,
-              "fast_downward_search_time_limit": f"{max(1, int(time_limit))}s",
-              "log_level": "info"}
-    with OneshotPlanner(name="fast-downward", params=params) as planner:
-        result = planner.solve(problem, timeout=time_limit + 30)
+    result, log = run_planner(problem, search, time_limit)
     seconds = time.perf_counter() - start
     status = _STATUS.get(result.status, Status.CRASHED)
     if status != Status.SOLVED:
-        log = " ".join(m.message for m in result.log_messages or [])[-300:]
-        return PlanResult(status, seconds=seconds, message=f"{result.status.name} {log}".strip())
-    log = "\n".join(m.message for m in result.log_messages or [])
+        tail = " ".join(log.split())[-300:]
+        return PlanResult(status, seconds=seconds, message=f"{result.status.name} {tail}".strip())
     plan = [model.action(action_name(a.action, a.actual_parameters)) for a in result.plan.actions]
     cost = replay_cost(model, state, plan, task)
     reported = _logged_int(r"Plan cost: (\d+)", log)

@@ -44,9 +44,11 @@ class CostLevels:
     """
 
     def __init__(self, bm, start: int, max_states: int | None = None, time_limit: float | None = None,
-                 heuristic=None):
+                 heuristic=None, after_step=None):
+        """`after_step(batch) -> batch` rewrites generated states (the joint search completes stages)."""
         self.bm = bm
         self.h = heuristic
+        self.after_step = after_step
         self.max_states = max_states
         self.deadline = None if time_limit is None else time.perf_counter() + time_limit
         self.closed = 0
@@ -120,6 +122,8 @@ class CostLevels:
         parent, action, child, cost = self.bm.successors(rows)
         if not len(child):
             return
+        if self.after_step is not None:
+            child = self.after_step(child)
         # One copy of each child, the cheapest; sorted keys make the closed lookup sequential.
         keys = state_keys(child)
         order = np.lexsort((cost, keys))
