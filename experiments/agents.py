@@ -65,11 +65,13 @@ class RandomPolicy(Policy):
 
 def make_agent(name: str, args) -> Planner | Policy:
     """The agent registered under a name, built from command-line arguments."""
+    from oracles.clairvoyant import ClairvoyantOracle
     from oracles.myopic import MyopicOracle
 
     table = {
         "myopic-oracle": lambda: MyopicOracle(getattr(args, "planner", "fast-downward"),
                                               getattr(args, "time_limit", 600.0)),
+        "clairvoyant": lambda: ClairvoyantOracle(getattr(args, "K", 3), getattr(args, "time_limit", 600.0)),
         "random": lambda: RandomPolicy(getattr(args, "seed", 0)),
     }
     if name not in table:
@@ -78,4 +80,4 @@ def make_agent(name: str, args) -> Planner | Policy:
     return table[name]()
 
 
-AGENTS = ("myopic-oracle", "random")
+AGENTS = ("myopic-oracle", "clairvoyant", "random")

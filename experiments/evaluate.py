@@ -126,6 +126,8 @@ def evaluate(model, agent, ids, out=None, progress=True, reference=None) -> dict
     bar.close()
     rows = [r for s in seqs for r in done[s.id]]
     result = summary(agent.name, model, [s.id for s in seqs], rows, wall, agent.config, reference)
+    if hasattr(agent, "summary"):          # an agent's own keys (e.g. the clairvoyant's K)
+        result.update(agent.summary(rows))
     if out:
         write_json(out, result)
         partial.unlink(missing_ok=True)
@@ -137,6 +139,7 @@ def main() -> None:
     p.add_argument("--agent", required=True, help=f"one of: {', '.join(AGENTS)}")
     p.add_argument("--planner", default="fast-downward", choices=["fast-downward", "internal"])
     p.add_argument("--time-limit", type=float, default=600.0, help="planner seconds per task")
+    p.add_argument("--K", type=int, default=3, help="window of the clairvoyant oracle")
     args = p.parse_args()
     model = compile_domain(args.domain, args.layout)
     agent = make_agent(args.agent, args)

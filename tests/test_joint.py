@@ -60,3 +60,27 @@ def test_water_then_coffee_matches_fast_downward(two_room, joint):
     state = two_room.reset_state(0)
     window = [two_room.tasks.get("serve-water(servingtable)"), two_room.tasks.get("make-coffee(servingtable)")]
     assert joint.plan(state, window).cost == 2275 == fast_downward_cost(two_room, state, window)
+
+
+def test_clairvoyant_k1_reproduces_the_myopic_oracle(two_room):
+    from experiments.evaluate import play_sequence
+    from oracles.clairvoyant import ClairvoyantOracle
+    from oracles.myopic import MyopicOracle
+    from planning.sequences import Sequence, load
+
+    seq = load(two_room, [1])[0]
+    short = Sequence(seq.id, seq.reset_seed, seq.tasks[:8])
+    k1 = play_sequence(two_room, ClairvoyantOracle(1, 60), short)
+    myopic = play_sequence(two_room, MyopicOracle("internal", 60), short)
+    assert [(r["cost"], r.get("plan")) for r in k1] == [(r["cost"], r.get("plan")) for r in myopic]
+    assert all(r["optimal"] for r in k1 if "window" in r)
+
+
+def test_clairvoyant_window_timeout_falls_back_and_is_marked(two_room):
+    from oracles.clairvoyant import ClairvoyantOracle
+
+    oracle = ClairvoyantOracle(2, time_limit=0.01)
+    oracle.start(two_room, None)
+    water = two_room.tasks.get("serve-water(servingtable)")
+    reply = oracle.plan(two_room.reset_state(0), water, [water])
+    assert reply.info["bounded"] and not reply.info["optimal"] and len(reply.plan) == 5
