@@ -40,6 +40,8 @@ class DomainSource:
 
 def read_config(folder: Path) -> dict:
     """domain.toml as a dict; a one-line error if it is missing or malformed."""
+    if not folder.is_dir():
+        raise DomainError(folder, "no such domain folder")
     path = folder / "domain.toml"
     if not path.is_file():
         raise DomainError(path, "missing (every domain folder needs domain.toml)")
@@ -71,8 +73,6 @@ def _parse(reader: PDDLReader, path: Path, kind: str):
 def read_domain(folder: str | Path, layout: str) -> DomainSource:
     """Parse the domain, the task schemas and the layout's problem into one tarski language."""
     folder = Path(folder)
-    if not folder.is_dir():
-        raise DomainError(folder, "no such domain folder")
     config = read_config(folder)
     known = config.get("layouts", {})
     if layout not in known:
