@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-INF = np.iinfo(np.int32).max // 4        # relaxed costs are int32: half the memory traffic
+INF = np.iinfo(np.int32).max // 4        # relaxed costs are int32 (half the memory traffic); INF + a cost fits
 INF_64 = np.iinfo(np.int64).max // 4     # "unreachable" for g and f values
 
 
@@ -37,43 +37,70 @@ class HMax:
             for cp, cn, ca, cd in op.cond:
                 add_achievers(pre + _bits(cp) + [n + i for i in _bits(cn)], cost, ca, cd)
         n *= 2
-        # Padding: literal index n is always reached (cost 0); achiever index len is never applicable.
-        width = max((len(p) for p, _, _ in achievers), default=1) or 1
-        self.pre = np.full((len(achievers) + 1, width), n, dtype=np.int64)
-        self.cost = np.zeros(len(achievers) + 1, dtype=np.int32)
-        for i, (pre, c, _) in enumerate(achievers):
-            self.pre[i, : len(pre)] = pre
-            self.cost[i] = c
-        self.cost[-1] = INF
-        # Achievers sorted by the atom they add (an atom with none gets the never-
-        # applicable one), so one minimum.reduceat gives every atom's best achiever.
-        per_atom = [[i for i, (_, _, atom) in enumerate(achievers) if atom == k] or [len(achievers)]
-                    for k in range(n)]
-        self.order = np.array([i for lst in per_atom for i in lst], dtype=np.int64)
-        self.starts = np.cumsum([0] + [len(lst) for lst in per_atom[:-1]]).astype(np.int64)
         self.n_atoms = n
+        self._achievers = achievers
+        self._tables: dict = {}
 
-    def atom_costs(self, batch: np.ndarray) -> np.ndarray:
-        """(N, 2 atoms + 1) relaxed cost of reaching each literal from each state."""
+    def _relevant_tables(self, goal: list[list[int]]):
+        """Achiever tables restricted to the literals the goal can depend on (cached per goal).
+
+        A literal is relevant if it is in the goal or in the precondition of an
+        achiever of a relevant literal; the others cannot change the goal's h_max.
+        """
+        key = tuple(tuple(c) for c in goal)
+        if key in self._tables:
+            return self._tables[key]
+        relevant = {lit for conj in goal for lit in conj}
+        frontier = list(relevant)
+        by_effect: dict[int, list] = {}
+        for i, (_, _, lit) in enumerate(self._achievers):
+            by_effect.setdefault(lit, []).append(i)
+        while frontier:
+            lit = frontier.pop()
+            for i in by_effect.get(lit, []):
+                for p in self._achievers[i][0]:
+                    if p not in relevant:
+                        relevant.add(p)
+                        frontier.append(p)
+        lits = sorted(l for l in relevant if l in by_effect)          # reachable by some achiever
+        chosen = [i for l in lits for i in by_effect[l]]
+        n = self.n_atoms
+        # Padding: literal n is always reached (cost 0).
+        width = max((len(self._achievers[i][0]) for i in chosen), default=1) or 1
+        pre = np.full((len(chosen), width), n, dtype=np.int64)
+        cost = np.zeros(len(chosen), dtype=np.int32)
+        for row, i in enumerate(chosen):
+            p, c, _ = self._achievers[i]
+            pre[row, : len(p)] = p
+            cost[row] = c
+        starts = np.cumsum([0] + [len(by_effect[l]) for l in lits[:-1]]).astype(np.int64)
+        self._tables[key] = (pre, cost, starts, np.array(lits, dtype=np.int64))
+        return self._tables[key]
+
+    def literal_costs(self, batch: np.ndarray, goal: list[list[int]]) -> np.ndarray:
+        """(N, 2 atoms + 1) relaxed cost of each literal the goal depends on (others: 0 or INF)."""
+        pre, acost, starts, lits = self._relevant_tables(goal)
         bits = self.bm.to_bits(batch).astype(bool)
         cost = np.full((len(batch), self.n_atoms + 1), INF, dtype=np.int32)
         half = self.n_atoms // 2
         cost[:, :half][bits] = 0
         cost[:, half:-1][~bits] = 0
         cost[:, -1] = 0
+        if not len(lits):
+            return cost
         while True:
-            via = cost[:, self.pre].max(-1) + self.cost          # (N, achievers + 1)
-            best = np.minimum.reduceat(via[:, self.order], self.starts, axis=1)   # (N, atoms)
-            new = np.minimum(cost[:, :-1], best)
-            if (new == cost[:, :-1]).all():
+            via = cost[:, pre].max(-1) + acost                    # (N, achievers)
+            best = np.minimum.reduceat(via, starts, axis=1)        # (N, relevant literals)
+            new = np.minimum(cost[:, lits], best)
+            if (new == cost[:, lits]).all():
                 return cost
-            cost[:, :-1] = new
+            cost[:, lits] = new
 
     def __call__(self, batch: np.ndarray, goal: list[list[int]]) -> np.ndarray:
         """(N,) h_max of each state for a DNF goal of literal lists (INF: dead end)."""
         if not len(batch):
             return np.zeros(0, dtype=np.int64)
-        cost = self.atom_costs(batch)
+        cost = self.literal_costs(batch, goal)
         per_conj = [cost[:, conj].max(-1) if conj else np.zeros(len(batch), dtype=np.int32)
                     for conj in goal]
         h = np.minimum.reduce(per_conj).astype(np.int64)
