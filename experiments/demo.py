@@ -24,7 +24,8 @@ def main() -> None:
     p.add_argument("--tasks", type=int, default=50, help="tasks in the stream (default: %(default)s)")
     args = p.parse_args()
     model = compile_domain(args.domain, args.layout)
-    bm, hmax = BatchedModel(model), HMax(model, BatchedModel(model))
+    bm = BatchedModel(model)
+    hmax = HMax(model, bm)
     world = PersistentWorld(model, reset_seed=args.seed)
     print(f"{model.name} {model.layout}: {model.n_atoms} atoms, {model.n_actions} ground actions, "
           f"{len(model.tasks)} task instances; seed {args.seed}\n")

@@ -49,7 +49,7 @@ def uniform_cost_search(model, state: int, task, max_expansions: int | None = No
                 parent[t] = (s, a)
                 tie += 1
                 heapq.heappush(frontier, (g2, tie, t))
-    return SearchResult(None, None, expansions)
+    return SearchResult(None, None, expansions, complete=not frontier)
 
 
 def optimal_plan(bm, state: int, task, max_states: int | None = None,
