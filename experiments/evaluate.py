@@ -41,7 +41,7 @@ def play_sequence(model, agent, seq, bar=None) -> list[dict]:
                 if reply.plan is None:
                     world.abandon()
                 else:
-                    executed = _execute(world, reply.plan)
+                    executed = world.execute(reply.plan)
                     info["plan"] = [model.actions[a] for a in executed]
             else:
                 while world.task is not None:
@@ -53,17 +53,6 @@ def play_sequence(model, agent, seq, bar=None) -> list[dict]:
         if bar is not None:
             bar.update(1)
     return rows
-
-
-def _execute(world, plan) -> list:
-    """Run a plan within the budget (the actions executed); a plan short of the goal fails the task."""
-    for k, a in enumerate(plan):
-        step = world.act(a)
-        if step.completed or step.abandoned:
-            return plan[: k + 1]
-    if world.task is not None:
-        world.abandon()
-    return list(plan)
 
 
 def summary(agent_name, model, ids, rows, wall, config, reference=None) -> dict:

@@ -10,6 +10,9 @@ the sequences then drift apart (the closing table reports both).
 """
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+from typing import Iterator
+
 from experiments.agents import Planner, Reply
 from planning import cli
 from planning import fast_downward as fd
@@ -17,6 +20,7 @@ from planning.batched import BatchedModel
 from planning.compiler import compile_domain
 from planning.heuristics import HMax
 from planning.search import optimal_plan
+from planning.task_stream import PersistentWorld, TaskStream
 
 
 class MyopicOracle(Planner):
@@ -45,6 +49,56 @@ class MyopicOracle(Planner):
         r = optimal_plan(self._bm, state, task, time_limit=self.time_limit, hmax=self._hmax)
         status = "solved" if r.plan is not None else ("unsolvable" if r.complete else "out-of-time")
         return Reply(r.plan, {"status": status, "planner_cost": r.cost, "expansions": r.expansions})
+
+
+@dataclass
+class TaskRecord:
+    """One task of a persistent rollout: the world before it, what was executed, how it ended."""
+
+    index: int
+    task: str
+    reset_seed: int | None      # the world was re-sampled with this seed just before the task
+    states: list                # world states: before the first action, then after each action
+    plan: list                  # ground actions executed (empty if already satisfied)
+    cost: int
+    success: bool
+    auto: bool                  # already satisfied when drawn (zero cost, no action)
+    after: int                  # the world left behind (consumption applied on success)
+    info: dict = field(default_factory=dict)
+
+
+def rollout(model, planner: Planner, seed: int, n_tasks: int, done: list | None = None) -> Iterator[TaskRecord]:
+    """A persistent rollout of a planner on a seeded task stream (TaskStream: world reset every 50 tasks).
+
+    Yields one TaskRecord per task. `done` (records of an earlier, interrupted run
+    with the same seed) are replayed without planning, so a caller can resume.
+    """
+    stream = TaskStream(model, seed)
+    world = PersistentWorld(model)
+    done = list(done or [])
+    for i in range(n_tasks):
+        task, reset = stream.next()
+        if reset is not None:
+            world.reset(reset)
+        before, info, plan = world.state, {}, []
+        if i < len(done) and done[i].task != task.name:
+            raise ValueError(f"resumed record {i} is {done[i].task}, but seed {seed} draws {task.name}")
+        if not world.begin(task):
+            if i < len(done):
+                plan, info = done[i].plan, done[i].info
+            else:
+                reply = planner.plan(world.state, task, [])
+                plan, info = reply.plan, dict(reply.info)
+            if plan:
+                plan = world.execute(plan)
+            else:
+                world.abandon()
+        states = [before]
+        for a in plan or []:
+            states.append(model.apply(states[-1], a))
+        o = world.outcomes[-1]
+        yield TaskRecord(i, task.name, reset, states, list(plan or []), o.cost, o.success, o.auto,
+                         world.state, info)
 
 
 def type_table(result: dict) -> str:

@@ -78,6 +78,19 @@ class PersistentWorld:
             return Step(cost, False, True)
         return Step(cost, False, False)
 
+    def execute(self, plan: list) -> list:
+        """Run a plan for the current task within its budget; the actions executed.
+
+        The plan stops where the task completes or is abandoned; a plan that ends
+        short of the goal fails the task.
+        """
+        for k, a in enumerate(plan):
+            step = self.act(a)
+            if step.completed or step.abandoned:
+                return list(plan[: k + 1])
+        self.abandon()
+        return list(plan)
+
     def abandon(self) -> None:
         """Give up the current task (e.g. the planner failed): a failure, its cost so far charged."""
         self._finish(success=False)
