@@ -21,8 +21,7 @@ RESULTS = Path("results")
 
 def replay(model, limit_per_sequence=None, sequences=None):
     path = RESULTS / f"myopic-oracle-{model.layout}.json"
-    if not path.is_file():
-        pytest.skip(f"{path} not generated yet (python -m oracles.myopic --layout {model.layout})")
+    assert path.is_file(), f"{path} is committed; regenerate with python -m oracles.myopic --layout {model.layout}"
     data = json.loads(path.read_text())
     rows = {(r["sequence"], r["index"]): r for r in data["per_task"]}
     bm = BatchedModel(model)
