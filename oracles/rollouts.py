@@ -1,0 +1,180 @@
+"""Persistent myopic rollouts cached on disk: the one source of "states the myopic oracle visits".
+
+Three consumers share it: the reward calibration (2,000 tasks, thesis §5.2.4),
+the DQN's replay demonstrations (the first 500 task outcomes at seed 0,
+Appendix A.1) and the GNN dataset generator (states along myopic plans).
+`cached_rollout` returns the first n records of a seeded task stream; what a
+cache file already holds is replayed (no planning), the rest is planned and
+the file rewritten atomically every few tasks, so an interrupted run resumes.
+
+One file per (domain, layout, planner, seed), e.g.
+runs/rollouts/restaurant-two-room-internal-seed0.json. Plans are stored as
+ground-action names with each record's task, reset seed, cost, success and
+auto flag; states are rebuilt by replay on load and checked against them.
+
+    python -m oracles.rollouts --layout two-room --tasks 2000 --seed 0 [--planner internal]
+"""
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+from tqdm import tqdm
+
+from planning import cli
+from planning.atomic import write_json
+from planning.compiler import compile_domain
+from planning.errors import DomainError
+
+from .myopic import MyopicOracle, TaskRecord, rollout, type_table
+
+FORMAT = 1                      # bump when the file layout changes
+SAVE_EVERY_SECONDS = 10.0       # a long planner call is never lost for more than this
+SAVE_EVERY_TASKS = 50           # nor a run of quick ones
+
+
+def cache_path(model, seed: int, planner: str = "internal", cache_dir="runs/rollouts") -> Path:
+    """The cache file of one (domain, layout, planner, seed) rollout."""
+    return Path(cache_dir) / f"{model.name}-{model.layout}-{planner}-seed{seed}.json"
+
+
+def cached_rollout(model, seed: int, n_tasks: int, planner: str = "internal", time_limit: float = 600.0,
+                   cache_dir="runs/rollouts", progress=True) -> list[TaskRecord]:
+    """The first n_tasks records of the seeded myopic rollout, read from the cache and extended there."""
+    if n_tasks < 0:
+        raise DomainError("--tasks", f"{n_tasks} is not a number of tasks")
+    path = cache_path(model, seed, planner, cache_dir)
+    stored = load_records(model, path, seed, planner) if path.is_file() else []
+    if len(stored) >= n_tasks:
+        return replay(model, path, seed, stored[:n_tasks])
+    oracle = MyopicOracle(planner, time_limit)
+    oracle.start(model, None)
+    records: list[TaskRecord] = []
+    bar = tqdm(total=n_tasks, desc=f"myopic rollout {model.layout} seed {seed}", unit="task",
+               disable=not progress)
+    last_save, unsaved = time.monotonic(), 0
+    gen = _checked(rollout(model, oracle, seed, n_tasks, done=stored), path)
+    start = time.perf_counter()
+    for rec in gen:
+        if rec.index < len(stored):
+            _check_against(rec, stored[rec.index], path)
+        else:
+            rec.info["seconds"] = round(time.perf_counter() - start, 4)
+            unsaved += 1
+        records.append(rec)
+        bar.update(1)
+        if unsaved and (unsaved >= SAVE_EVERY_TASKS or time.monotonic() - last_save >= SAVE_EVERY_SECONDS):
+            _save(model, path, seed, planner, oracle.config, records)
+            last_save, unsaved = time.monotonic(), 0
+        start = time.perf_counter()
+    bar.close()
+    if unsaved:
+        _save(model, path, seed, planner, oracle.config, records)
+    return records
+
+
+def load_records(model, path, seed: int, planner: str) -> list[TaskRecord]:
+    """The records a cache file holds, not yet replayed (states empty); a DomainError if it is unreadable."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise DomainError(path, f"corrupt rollout cache ({e}); delete it to recompute") from None
+    if not isinstance(data, dict) or not isinstance(data.get("records"), list):
+        raise DomainError(path, "corrupt rollout cache (no record list); delete it to recompute")
+    want = {"format": FORMAT, "domain": model.name, "layout": model.layout, "planner": planner, "seed": seed}
+    for key, value in want.items():
+        if data.get(key) != value:
+            raise DomainError(path, f"rollout cache has {key} {data.get(key)!r}, expected {value!r}; "
+                                    f"delete it to recompute")
+    out = []
+    for i, r in enumerate(data["records"]):
+        try:
+            plan = [model.action(name) for name in r["plan"]]
+            out.append(TaskRecord(i, r["task"], r["reset_seed"], [], plan, int(r["cost"]), bool(r["success"]),
+                                  bool(r["auto"]), -1, dict(r.get("info", {}))))
+        except DomainError as e:
+            raise DomainError(path, f"record {i}: {e}; delete it to recompute") from None
+        except (KeyError, TypeError, ValueError, AttributeError) as e:
+            raise DomainError(path, f"record {i} is malformed ({e!r}); delete it to recompute") from None
+    return out
+
+
+def replay(model, path, seed: int, stored: list[TaskRecord]) -> list[TaskRecord]:
+    """Stored records with their states rebuilt by replaying their plans on the seeded stream, checked."""
+    records = []
+    for rec in _checked(rollout(model, None, seed, len(stored), done=stored), path):
+        _check_against(rec, stored[rec.index], path)
+        records.append(rec)
+    return records
+
+
+def _checked(records, path):
+    """Re-raise a replay failure (another task drawn, an inapplicable action) as an error naming the cache."""
+    try:
+        yield from records
+    except (ValueError, DomainError) as e:
+        raise DomainError(path, f"does not replay ({e}); delete it to recompute") from None
+
+
+def _check_against(rec: TaskRecord, want: TaskRecord, path) -> None:
+    """A replayed record must end as the stored one did."""
+    got = (rec.task, rec.reset_seed, rec.cost, rec.success, rec.auto, rec.plan)
+    exp = (want.task, want.reset_seed, want.cost, want.success, want.auto, want.plan)
+    if got != exp:
+        fields = ("task", "reset_seed", "cost", "success", "auto", "plan")
+        bad = next(f"{f} {g!r} on replay, {e!r} stored" for f, g, e in zip(fields, got, exp) if g != e)
+        raise DomainError(path, f"record {rec.index} ({want.task}) does not replay: {bad}; "
+                                f"delete it to recompute")
+    rec.info = dict(want.info)
+
+
+def _save(model, path: Path, seed: int, planner: str, config: dict, records: list[TaskRecord]) -> None:
+    # Another process extending the same cache may already have written more; keep the longer file.
+    if path.is_file():
+        try:
+            if len(json.loads(path.read_text()).get("records", [])) > len(records):
+                return
+        except (OSError, ValueError, AttributeError):
+            pass
+    write_json(path, {
+        "format": FORMAT, "domain": model.name, "layout": model.layout, "planner": planner, "seed": seed,
+        "config": config, "tasks": len(records),
+        "records": [{"task": r.task, "reset_seed": r.reset_seed, "plan": [model.actions[a] for a in r.plan],
+                     "cost": r.cost, "success": r.success, "auto": r.auto, "info": r.info} for r in records]})
+
+
+def rows(model, records: list[TaskRecord]) -> list[dict]:
+    """Per-task rows shaped like the evaluation runner's (for type_table)."""
+    return [{"index": r.index, "task": r.task, "cost": r.cost, "actions": len(r.plan), "success": r.success,
+             "auto": r.auto, "seconds": r.info.get("seconds", 0.0)} for r in records]
+
+
+def main() -> None:
+    p = cli.parser(__doc__.splitlines()[0])
+    p.add_argument("--tasks", type=int, default=2000, help="tasks of the stream (default: %(default)s)")
+    p.add_argument("--planner", default="internal", choices=["internal", "fast-downward"])
+    p.add_argument("--time-limit", type=float, default=600.0, help="planner seconds per task (default 600)")
+    p.add_argument("--cache-dir", default="runs/rollouts", help="where caches live (default: %(default)s)")
+    args = p.parse_args()
+    model = compile_domain(args.domain, args.layout)
+    start = time.perf_counter()
+    records = cached_rollout(model, args.seed, args.tasks, args.planner, args.time_limit, args.cache_dir)
+    table = rows(model, records)
+    n = max(len(table), 1)
+    print(f"\nmyopic rollout ({args.planner}), {model.name} {model.layout}, seed {args.seed}: "
+          f"{len(table)} tasks, cost per task {sum(r['cost'] for r in table) / n:.1f}, "
+          f"{time.perf_counter() - start:.1f}s this run")
+    if table:
+        print(type_table({"per_task": table}))
+    print(f"wrote {cache_path(model, args.seed, args.planner, args.cache_dir)}")
+    if args.out:
+        write_json(args.out, {"domain": model.name, "layout": model.layout, "planner": args.planner,
+                              "seed": args.seed, "tasks": len(table),
+                              "cost_per_task": round(sum(r["cost"] for r in table) / n, 2), "per_task": table})
+        print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    cli.run(main)
