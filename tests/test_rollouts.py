@@ -7,7 +7,8 @@ import pytest
 
 from oracles import rollouts
 from oracles.myopic import MyopicOracle, rollout
-from oracles.rollouts import cache_path, cached_rollout
+from experiments.agents import Planner, Reply
+from oracles.rollouts import RememberingOracle, cache_path, cached_rollout
 from planning.errors import DomainError
 
 
@@ -101,3 +102,21 @@ def test_command_fails_in_one_line_on_a_corrupt_cache(tmp_path):
                         "--cache-dir", str(tmp_path)], capture_output=True, text=True)
     assert r.returncode == 2
     assert r.stderr.count("\n") == 1 and "corrupt rollout cache" in r.stderr
+
+
+def test_a_solved_state_and_task_is_answered_from_memory(two_room, direct):
+    class Counting(Planner):
+        calls = 0
+
+        def plan(self, state, task, upcoming):
+            Counting.calls += 1
+            return Reply(None, {"status": "unsolvable"})
+
+    oracle = RememberingOracle(Counting())
+    for r in direct:
+        oracle.remember(r)
+    first = direct[0]
+    reply = oracle.plan(first.states[0], two_room.tasks.get(first.task), [])
+    assert reply.plan == first.plan and reply.info["remembered"] and Counting.calls == 0
+    assert oracle.plan(first.after, two_room.tasks.get(first.task), []).plan is None    # another world
+    assert Counting.calls == 1 and len(oracle.plans) == 3          # the auto record gives no plan
