@@ -84,7 +84,7 @@ def cached_rollout(model, seed: int, n_tasks: int, planner: str = "internal", ti
     bar = tqdm(total=n_tasks, desc=f"myopic rollout {model.layout} seed {seed}", unit="task",
                disable=not progress)
     last_save, unsaved = time.monotonic(), 0
-    gen = _checked(rollout(model, oracle, seed, n_tasks, done=stored), path)
+    gen = _checked(rollout(model, oracle, seed, n_tasks, done=stored), path, len(stored))
     start = time.perf_counter()
     for rec in gen:
         if rec.index < len(stored):
@@ -135,17 +135,23 @@ def load_records(model, path, seed: int, planner: str) -> list[TaskRecord]:
 def replay(model, path, seed: int, stored: list[TaskRecord]) -> list[TaskRecord]:
     """Stored records with their states rebuilt by replaying their plans on the seeded stream, checked."""
     records = []
-    for rec in _checked(rollout(model, None, seed, len(stored), done=stored), path):
+    for rec in _checked(rollout(model, None, seed, len(stored), done=stored), path, len(stored)):
         _check_against(rec, stored[rec.index], path)
         records.append(rec)
     return records
 
 
-def _checked(records, path):
-    """Re-raise a replay failure (another task drawn, an inapplicable action) as an error naming the cache."""
+def _checked(records, path, n_stored: int):
+    """Re-raise a failure replaying the first n_stored records (another task drawn, an inapplicable
+    action) as an error naming the cache; errors while planning later tasks pass through."""
+    yielded = 0
     try:
-        yield from records
+        for rec in records:
+            yielded += 1
+            yield rec
     except (ValueError, DomainError) as e:
+        if yielded >= n_stored:
+            raise
         raise DomainError(path, f"does not replay ({e}); delete it to recompute") from None
 
 
