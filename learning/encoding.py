@@ -1,0 +1,131 @@
+"""Observation and factored-action encodings derived from a compiled model (thesis §4.1.1, Appendix A.1).
+
+Observation. The state's atom bits (`BatchedModel.to_bits`) followed by a task
+encoding: a one-hot of the task type, then, for each argument position k, a
+one-hot over the objects that appear at position k in some task instance plus
+a *none* slot (the type takes fewer arguments). The thesis's 318/329-dim vector
+(Appendix A.1) is a hand-made decoding of the same facts: agent location,
+hand-free, held object, per-object location / dirty / contents / container /
+kind, bread spread (each a one-hot of a group of atoms), then four task fields
+(type, target location, target kind, target object) with none slots. Here the
+atoms themselves are the features (70 two-room, 78 three-room), so no domain
+knowledge enters Python; the kind fields are static facts and drop out.
+
+Actions. The factored labels of `planning.factored` (Table A.1), plus one extra
+pseudo-action AUTO = n_actions: the internal auto_complete event. A task that
+already holds when it is drawn completes at zero cost with reward R_goal; AUTO
+is then the *only* valid action (and never valid otherwise), so
+V(s, τ) = max_a Q(s, τ, a) = Q(s, τ, AUTO) for a satisfied τ and the preparedness
+value V_AP(s) = Σ_τ P(τ) max_a Q(s, τ, a) needs no special case. AUTO's label is
+its own type value with every argument at *none*.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from planning.batched import BatchedModel
+from planning.factored import factored_actions
+
+AUTO_TYPE = "auto_complete"
+
+
+class Encoding:
+    """Observation features, validity masks and the factored action table of one compiled layout."""
+
+    def __init__(self, model):
+        self.model = model
+        self.bm = BatchedModel(model)
+        self.factored = factored_actions(model)
+        self.n_atoms = model.n_atoms
+        self.n_words = self.bm.n_words
+        self.n_actions = model.n_actions + 1           # ground actions, then AUTO
+        self.AUTO = model.n_actions
+        fa = self.factored
+        self.heads = list(fa.heads)
+        self.vocab = [list(fa.vocab[0]) + [AUTO_TYPE]] + [list(v) for v in fa.vocab[1:]]
+        auto_row = [len(fa.vocab[0])] + [len(v) - 1 for v in fa.vocab[1:]]   # none for every argument
+        self.labels = np.vstack([fa.labels, np.array([auto_row], dtype=np.int64)])
+        self.action_type = self.labels[:, 0]
+        self.type_names = self.vocab[0]
+        self._task_features()
+        self._task_goals()
+        self.obs_dim = self.n_atoms + self.task_feat.shape[1]
+
+    # ---- task encoding ---------------------------------------------------
+    def _task_features(self) -> None:
+        tasks = list(self.model.tasks)
+        types = list(dict.fromkeys(t.type for t in tasks))
+        arity = max((len(t.args) for t in tasks), default=0)
+        slots = [list(dict.fromkeys(t.args[k] for t in tasks if len(t.args) > k)) for k in range(arity)]
+        width = len(types) + sum(len(s) + 1 for s in slots)
+        feat = np.zeros((len(tasks), width), dtype=np.float32)
+        for i, t in enumerate(tasks):
+            feat[i, types.index(t.type)] = 1.0
+            off = len(types)
+            for k, objs in enumerate(slots):
+                feat[i, off + (objs.index(t.args[k]) if k < len(t.args) else len(objs))] = 1.0
+                off += len(objs) + 1
+        self.task_types, self.task_feat = types, feat
+        self.task_prob = np.asarray(self.model.tasks.probabilities, dtype=np.float64)
+        self.task_prob = self.task_prob / self.task_prob.sum()
+        self.support = np.flatnonzero(self.task_prob > 0)   # the tasks V_AP averages over
+
+    def _task_goals(self) -> None:
+        # Every binding of every task goal as packed masks, for batched satisfaction tests.
+        pos, neg, owner = [], [], []
+        for t in self.model.tasks:
+            for b in t.bindings:
+                pos.append(b.pos)
+                neg.append(b.neg)
+                owner.append(t.index)
+        self.goal_pos = self.bm.pack(pos)
+        self.goal_neg = self.bm.pack(neg)
+        self.goal_owner = np.array(owner, dtype=np.int64)
+
+    # ---- batched features ------------------------------------------------
+    def pack(self, states) -> np.ndarray:
+        """(N, W) uint64 packed states from int states (a packed array passes through)."""
+        if isinstance(states, np.ndarray) and states.dtype == np.uint64:
+            return states.reshape(-1, self.n_words)
+        return self.bm.pack(list(states))
+
+    def observe(self, packed: np.ndarray, tasks: np.ndarray) -> np.ndarray:
+        """(N, obs_dim) float32 observations of (state, task index) pairs."""
+        bits = self.bm.to_bits(packed).astype(np.float32)
+        return np.concatenate([bits, self.task_feat[np.asarray(tasks, dtype=np.int64)]], axis=1)
+
+    def satisfied_all(self, packed: np.ndarray) -> np.ndarray:
+        """(N, tasks) bool: which task goals hold in each state."""
+        ok = np.ones((packed.shape[0], len(self.goal_owner)), dtype=bool)
+        for w in range(self.n_words):
+            s = packed[:, w, None]
+            ok &= ((~s & self.goal_pos[None, :, w]) | (s & self.goal_neg[None, :, w])) == 0
+        out = np.zeros((packed.shape[0], len(self.model.tasks)), dtype=bool)
+        for j in range(out.shape[1]):
+            out[:, j] = ok[:, self.goal_owner == j].any(1)
+        return out
+
+    def applicable(self, packed: np.ndarray) -> np.ndarray:
+        """(N, n_actions) bool: applicable ground actions, AUTO column False."""
+        out = np.zeros((packed.shape[0], self.n_actions), dtype=bool)
+        out[:, : self.AUTO] = self.bm.applicable(packed)
+        return out
+
+    def valid(self, applicable: np.ndarray, satisfied: np.ndarray) -> np.ndarray:
+        """(N, n_actions) validity: the applicable actions, or AUTO alone where the task already holds."""
+        out = applicable.copy()
+        out[satisfied] = False
+        out[satisfied, self.AUTO] = True
+        return out
+
+    def valid_for(self, packed: np.ndarray, tasks: np.ndarray) -> np.ndarray:
+        """Validity masks of (state, task index) pairs."""
+        tasks = np.asarray(tasks, dtype=np.int64)
+        sat = self.satisfied_all(packed)[np.arange(len(tasks)), tasks]
+        return self.valid(self.applicable(packed), sat)
+
+    def signature(self) -> dict:
+        """What a checkpoint must agree on to be used with this layout."""
+        return {"domain": self.model.name, "layout": self.model.layout, "atoms": self.n_atoms,
+                "actions": self.n_actions, "obs_dim": self.obs_dim, "tasks": len(self.model.tasks),
+                "vocab": [len(v) for v in self.vocab]}

@@ -1,0 +1,280 @@
+"""The factored autoregressive dueling Q-network (thesis §4.1.1, Figure 4.2) and its Bellman targets.
+
+Q(s, τ, a) = V(s, τ) + Σ_d Ā_d(s, τ, a_1..a_{d-1}; a_d): a shared encoder of the
+observation, a state-value head and one advantage head per action component.
+Head d sees the state embedding and learned embeddings of the earlier
+components; its advantages are centred over the values of component d that are
+valid given that prefix. Valid tuples in a state are exactly the factored labels
+of its valid ground actions (plus AUTO, see `learning.encoding`), so Q is
+computed for every ground action at once and the greedy action is the argmax
+over the valid ones: exact enumeration, batched over many (state, task) pairs.
+
+The batched plug-in calls for searches (SPEC "Values as plug-in heuristics") are
+`ValueFunction.q_max(states, task)` and `ValueFunction.v_ap(states)`.
+"""
+from __future__ import annotations
+
+import io
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch import nn
+
+from planning.errors import DomainError
+
+from .encoding import Encoding
+
+# Transition kinds in the replay buffer: how the target bootstraps (Algorithm 1).
+CONTINUE = 0     # within the task, or the per-task timeout: bootstrap the same task (§4.1.3 a)
+COMPLETE = 1     # the task completed: myopic y = r, anticipatory y = r + γ V_AP(s')
+TERMINAL = 2     # the domain declares the episode over (e.g. the minimal example): y = r
+
+
+class ActionTable:
+    """Static index tables of the factored action space: per head, the distinct prefixes and gathers."""
+
+    def __init__(self, labels: np.ndarray, vocab_sizes: list):
+        self.sizes = list(vocab_sizes)
+        self.prefixes, self.flat, self.scatter, self.uses, self.pid, self.val = [], [], [], [], [], []
+        n = labels.shape[0]
+        for d in range(labels.shape[1]):
+            keys = [tuple(r) for r in labels[:, :d].tolist()]
+            uniq = list(dict.fromkeys(keys))
+            pid = np.array([uniq.index(k) for k in keys], dtype=np.int64)
+            flat = pid * self.sizes[d] + labels[:, d]
+            # scatter[a, p*V+v] = 1: action a is a tuple with prefix p and value v at head d
+            sc = np.zeros((n, len(uniq) * self.sizes[d]), dtype=np.float32)
+            sc[np.arange(n), flat] = 1.0
+            uses = np.zeros((n, len(uniq)), dtype=np.float32)    # action a has prefix p
+            uses[np.arange(n), pid] = 1.0
+            self.prefixes.append(torch.tensor(np.array(uniq, dtype=np.int64).reshape(len(uniq), d)))
+            self.flat.append(torch.from_numpy(flat))
+            self.scatter.append(torch.from_numpy(sc))
+            self.uses.append(torch.from_numpy(uses))
+            self.pid.append(torch.from_numpy(pid))
+            self.val.append(torch.from_numpy(labels[:, d].astype(np.int64)))
+
+
+class FactoredQNet(nn.Module):
+    """Shared encoder, value head, autoregressive mask-centred advantage heads; one scalar Q per tuple.
+
+    Head d is a one-hidden-layer MLP of [state embedding, embeddings of components
+    1..d-1]; its first layer is split into a state part (computed once per row) and
+    a prefix part (computed once per distinct prefix), and it is evaluated only for
+    the prefixes some valid action of the row has, which is what keeps the batched
+    boundary expectation cheap.
+    """
+
+    def __init__(self, obs_dim: int, labels: np.ndarray, vocab_sizes: list, hidden: int = 256,
+                 embed: int = 16, head_hidden: int = 64):
+        super().__init__()
+        self.table = ActionTable(labels, vocab_sizes)
+        self.dims = {"obs_dim": obs_dim, "hidden": hidden, "embed": embed, "head_hidden": head_hidden,
+                     "vocab_sizes": list(vocab_sizes)}
+        n = len(vocab_sizes)
+        self.head_hidden = head_hidden
+        self.encoder = nn.Sequential(nn.Linear(obs_dim, hidden), nn.ReLU(), nn.Linear(hidden, hidden), nn.ReLU())
+        # one matmul for the value stream's hidden layer and every head's state part
+        self.from_state = nn.Linear(hidden, (n + 1) * head_hidden)
+        self.value = nn.Linear(head_hidden, 1)
+        self.embeds = nn.ModuleList(nn.Embedding(v, embed) for v in vocab_sizes[:-1])
+        self.from_prefix = nn.ModuleList(nn.Linear(d * embed, head_hidden, bias=False) for d in range(1, n))
+        self.out = nn.ModuleList(nn.Linear(head_hidden, v) for v in vocab_sizes)
+
+    def forward(self, obs: torch.Tensor, valid: torch.Tensor) -> torch.Tensor:
+        """(N, actions) Q of every valid ground action; -inf where invalid."""
+        N, H = obs.shape[0], self.head_hidden
+        parts = self.from_state(self.encoder(obs))
+        v = self.value(torch.relu(parts[:, :H]))[:, 0]
+        rows, acts = valid.nonzero(as_tuple=True)                 # the valid tuples, all rows at once
+        q = v[rows]
+        for d, size in enumerate(self.table.sizes):
+            P = self.table.uses[d].shape[1]
+            pid, val = self.table.pid[d][acts], self.table.val[d][acts]
+            keys, inv = torch.unique(rows * P + pid, return_inverse=True)   # (row, prefix) pairs in use
+            krow, kpre = keys // P, keys % P
+            z = parts[krow, (d + 1) * H:(d + 2) * H]                        # the state part
+            if d:
+                p = self.table.prefixes[d]
+                e = torch.cat([self.embeds[k](p[:, k]) for k in range(d)], dim=1)
+                z = z + self.from_prefix[d - 1](e)[kpre]                     # + the prefix part
+            adv = self.out[d](torch.relu(z))                                 # (K, V_d)
+            mask = torch.zeros(adv.shape, dtype=adv.dtype).index_put((inv, val), torch.ones(()))
+            mean = (adv * mask).sum(-1) / mask.sum(-1)                       # over the valid values only
+            q = q + adv[inv, val] - mean[inv]
+        out = torch.full((N, valid.shape[1]), float("-inf"), dtype=q.dtype)
+        return out.index_put((rows, acts), q)
+
+
+def masked_max(q: torch.Tensor, valid: torch.Tensor):
+    """(max over valid actions, argmax) per row."""
+    qm = q.masked_fill(~valid, float("-inf"))
+    return qm.max(dim=1)
+
+
+class ValueFunction:
+    """A trained Q-network bound to a layout's encoding: greedy actions, q_max and v_ap, batched."""
+
+    def __init__(self, net: FactoredQNet, enc: Encoding):
+        self.net, self.enc = net, enc
+
+    def _q(self, packed, tasks, valid=None):
+        obs = torch.from_numpy(self.enc.observe(packed, tasks))
+        if valid is None:
+            valid = self.enc.valid_for(packed, tasks)
+        valid = torch.from_numpy(valid)
+        with torch.no_grad():
+            return self.net(obs, valid), valid
+
+    def q_values(self, states, task) -> np.ndarray:
+        """(N, actions) Q of (state, task) for every ground action and AUTO; -inf where invalid."""
+        packed = self.enc.pack(states)
+        tasks = np.full(len(packed), _task_index(task), dtype=np.int64)
+        q, valid = self._q(packed, tasks)
+        return q.masked_fill(~valid, float("-inf")).numpy()
+
+    def greedy(self, states, task) -> np.ndarray:
+        """The greedy ground action (or AUTO) per state for one task."""
+        return self.q_values(states, task).argmax(1)
+
+    def q_max(self, states, task) -> np.ndarray:
+        """max_a Q(s, τ, a) per state: the value of a state for the current task."""
+        return self.q_values(states, task).max(1)
+
+    def v_ap(self, states) -> np.ndarray:
+        """V_AP(s) = Σ_τ P(τ) max_a Q(s, τ, a) per state: the preparedness value (Eq. 3.8)."""
+        packed = self.enc.pack(states)
+        return preparedness(self.net, self.net, self.enc, packed)
+
+
+def _task_index(task) -> int:
+    return task if isinstance(task, (int, np.integer)) else task.index
+
+
+def _pairs(enc: Encoding, packed: np.ndarray):
+    """Every (state, task in the support) pair of a batch: observations and validity, masks once per state."""
+    support = enc.support
+    n, k = len(packed), len(support)
+    app = enc.applicable(packed)
+    sat = enc.satisfied_all(packed)[:, support]
+    rows = np.repeat(np.arange(n), k)
+    tasks = np.tile(support, n)
+    valid = enc.valid(app[rows], sat.reshape(-1))
+    return enc.observe(packed[rows], tasks), valid
+
+
+def preparedness(online: nn.Module, target: nn.Module, enc: Encoding, packed: np.ndarray) -> np.ndarray:
+    """Σ_τ P(τ) Q_target(s, τ, argmax_a Q_online(s, τ, a)) per state (with online = target: V_AP)."""
+    if len(packed) == 0:
+        return np.zeros(0)
+    obs, valid = _pairs(enc, packed)
+    obs, valid = torch.from_numpy(obs), torch.from_numpy(valid)
+    with torch.no_grad():
+        _, best = masked_max(online(obs, valid), valid)
+        qt = target(obs, valid) if target is not online else online(obs, valid)
+        v = qt.gather(1, best[:, None])[:, 0].reshape(len(packed), len(enc.support)).double()
+    return (v @ torch.from_numpy(enc.task_prob[enc.support])).numpy()
+
+
+def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict, gamma: float,
+               horizon: str) -> torch.Tensor:
+    """Double-DQN targets of Algorithm 1 (lines 11-17) for a batch of stored transitions.
+
+    batch: next_states (N, W) uint64, tasks (N,), rewards (N,), kinds (N,) (CONTINUE /
+    COMPLETE / TERMINAL). The online net picks, the target net values. The
+    same-task pairs and the boundary pairs (every completion's s' with every task
+    of the support) go through each network in one batched call.
+    """
+    if horizon not in ("myopic", "anticipatory"):
+        raise DomainError("--horizon", f"'{horizon}' is neither myopic nor anticipatory")
+    y = torch.as_tensor(batch["rewards"], dtype=torch.float32).clone()
+    kinds = np.asarray(batch["kinds"])
+    nxt = batch["next_states"]
+    cont = np.flatnonzero(kinds == CONTINUE)
+    comp = np.flatnonzero(kinds == COMPLETE) if horizon == "anticipatory" else cont[:0]
+    if not len(cont) and not len(comp):
+        return y
+    tasks = np.asarray(batch["tasks"])[cont]
+    obs, valid = [enc.observe(nxt[cont], tasks)], [enc.valid_for(nxt[cont], tasks)]
+    if len(comp):
+        o, v = _pairs(enc, nxt[comp])
+        obs.append(o)
+        valid.append(v)
+    obs = torch.from_numpy(np.concatenate(obs))
+    valid = torch.from_numpy(np.concatenate(valid))
+    with torch.inference_mode():
+        _, best = masked_max(online(obs, valid), valid)
+        qt = target(obs, valid).gather(1, best[:, None])[:, 0]
+    k = len(cont)
+    y[torch.from_numpy(cont)] += gamma * qt[:k]
+    if len(comp):
+        p = torch.from_numpy(enc.task_prob[enc.support]).float()
+        y[torch.from_numpy(comp)] += gamma * (qt[k:].reshape(len(comp), len(enc.support)) @ p)
+    return y
+
+
+# ---- checkpoints ---------------------------------------------------------
+def save_checkpoint(path, payload: dict) -> Path:
+    """Write a torch checkpoint atomically: a temporary file beside it, then os.replace."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    buf = io.BytesIO()
+    torch.save(payload, buf)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(buf.getvalue())
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def read_checkpoint(path) -> dict:
+    """A checkpoint's payload; a missing or corrupt file is a one-line DomainError."""
+    path = Path(path)
+    if not path.is_file():
+        raise DomainError(path, "no such checkpoint")
+    try:
+        payload = torch.load(path, map_location="cpu", weights_only=False)
+    except Exception as e:   # torch raises many types for a truncated or foreign file
+        raise DomainError(path, f"not a readable checkpoint ({type(e).__name__})") from None
+    if not isinstance(payload, dict) or "net" not in payload or "dims" not in payload:
+        raise DomainError(path, "not a Q-network checkpoint (no 'net' or 'dims')")
+    return payload
+
+
+def network_payload(net: FactoredQNet, enc: Encoding, extra: dict | None = None) -> dict:
+    """The minimal checkpoint of a network: weights, sizes and the layout signature."""
+    return {"net": net.state_dict(), "dims": net.dims, "signature": enc.signature(), **(extra or {})}
+
+
+def build_network(enc: Encoding, hidden: int = 256, embed: int = 16, head_hidden: int = 64) -> FactoredQNet:
+    """A fresh network for a layout's encoding."""
+    return FactoredQNet(enc.obs_dim, enc.labels, [len(v) for v in enc.vocab], hidden, embed, head_hidden)
+
+
+def load_value_function(path, model) -> ValueFunction:
+    """The greedy value of a checkpoint, checked against the layout it is used on."""
+    payload = read_checkpoint(path)
+    enc = Encoding(model)
+    sig = payload.get("signature", {})
+    mine = enc.signature()
+    if sig != mine:
+        diff = [k for k in mine if sig.get(k) != mine[k]]
+        raise DomainError(path, f"trained for {sig.get('domain')}/{sig.get('layout')}, "
+                                f"not {mine['domain']}/{mine['layout']} (differs in {', '.join(diff)})")
+    d = payload["dims"]
+    net = FactoredQNet(d["obs_dim"], enc.labels, d["vocab_sizes"], d["hidden"], d["embed"], d["head_hidden"])
+    try:
+        net.load_state_dict(payload["net"])
+    except RuntimeError as e:
+        raise DomainError(path, f"weights do not fit the network ({str(e).splitlines()[0]})") from None
+    net.eval()
+    return ValueFunction(net, enc)
