@@ -36,11 +36,14 @@ class StateKeyCollision(RuntimeError):
 
 
 class CostLevels:
-    """Iterate over (f, states, ids, g): states closed at f = g + h, each exactly once.
+    """Iterate over (f, states, ids, g): states closed at f = g + h, level by level.
 
-    With no heuristic this is Dijkstra (f = g). With a consistent heuristic
-    `h(batch) -> (N,) costs` it is A*: a state is still closed at its optimal g,
-    and states whose h is infinite (dead ends) are never opened.
+    With no heuristic this is Dijkstra (f = g) and each state is closed once, at
+    its optimal g. With an admissible heuristic `h(batch) -> (N,) costs` it is A*
+    with pathmax (a child's f is at least its parent's) and reopening: a closed
+    state reached again with a smaller g is closed again, so an inconsistent
+    heuristic such as LM-cut still gives optimal costs; with a consistent one
+    nothing is ever reopened. States whose h is infinite (dead ends) are never opened.
     """
 
     def __init__(self, bm, start: int, max_states: int | None = None, time_limit: float | None = None,
@@ -52,9 +55,16 @@ class CostLevels:
         self.max_states = max_states
         self.deadline = None if time_limit is None else time.perf_counter() + time_limit
         self.closed = 0
+        self.reopened = 0               # closings of a state already closed at a larger g
         self.exhausted = False          # True when every reachable state was closed
         self._keys = np.zeros(0, dtype=np.uint64)
         self._rows = np.zeros((0, bm.n_words), dtype=np.uint64)
+        self._g = np.zeros(0, dtype=np.int64)       # the g each stored state was last closed at
+        # h of every state evaluated so far: an open state is generated again and
+        # again from different parents, and a strong heuristic is the dear part.
+        self._h_keys = np.zeros(0, dtype=np.uint64)
+        self._h_rows = np.zeros((0, bm.n_words), dtype=np.uint64)
+        self._h_vals = np.zeros(0, dtype=np.int64)
         self._parents: list[np.ndarray] = []
         self._actions: list[np.ndarray] = []
         start_row = bm.pack([start])
@@ -79,9 +89,9 @@ class CostLevels:
             self.closed += len(rows)
             self._parents.append(parents)
             self._actions.append(actions)
-            self._remember(keys, rows)
+            self._remember(keys, rows, g)
             yield f, rows, ids, g
-            self._expand(f - g, rows, ids, g)
+            self._expand(f, rows, ids, g)
         self.exhausted = True
 
     def plan_to(self, state_id: int) -> list[int]:
@@ -95,47 +105,87 @@ class CostLevels:
         return plan[::-1]
 
     def _new_states(self, rows, parents, actions, g):
-        """The rows not yet closed, one per distinct state, with their sorted keys."""
+        """The rows not yet closed at a g as small, one per distinct state (its smallest g), with keys."""
         keys = state_keys(rows)
-        keys, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
-        if (rows[first][inverse] != rows).any():
-            raise StateKeyCollision("two states of one cost level share a key")
-        rows, parents, actions, g = rows[first], parents[first], actions[first], g[first]
-        fresh = ~self._closed_mask(keys, rows)
+        order = np.lexsort((g, keys))
+        keys = keys[order]
+        first = np.ones(len(keys), dtype=bool)
+        first[1:] = keys[1:] != keys[:-1]
+        pick = order[first]
+        keys = keys[first]
+        if len(pick) < len(rows):
+            back = np.cumsum(first) - 1              # each sorted row's kept representative
+            if (rows[pick][back] != rows[order]).any():
+                raise StateKeyCollision("two states of one cost level share a key")
+        rows, parents, actions, g = rows[pick], parents[pick], actions[pick], g[pick]
+        fresh = ~self._closed_mask(keys, rows, g)
         return rows[fresh], parents[fresh], actions[fresh], g[fresh], keys[fresh]
 
-    def _closed_mask(self, keys, rows) -> np.ndarray:
+    def _closed_mask(self, keys, rows, g) -> np.ndarray:
+        """(N,) bool: which states (sorted unique keys) are closed already at a g no larger."""
         if not len(self._keys):
             return np.zeros(len(keys), dtype=bool)
         pos = np.minimum(np.searchsorted(self._keys, keys), len(self._keys) - 1)
         hit = self._keys[pos] == keys
         if (self._rows[pos[hit]] != rows[hit]).any():
             raise StateKeyCollision("a new state shares its key with a closed one")
-        return hit
+        return hit & (self._g[pos] <= g)
 
-    def _remember(self, keys, rows) -> None:
+    def _remember(self, keys, rows, g) -> None:
         pos = np.searchsorted(self._keys, keys)    # keys are sorted: the merge stays sorted
-        self._keys = np.insert(self._keys, pos, keys)
-        self._rows = np.insert(self._rows, pos, rows, axis=0)
+        known = np.zeros(len(keys), dtype=bool)
+        if len(self._keys):
+            inside = pos < len(self._keys)
+            known[inside] = self._keys[pos[inside]] == keys[inside]
+        if known.any():                            # reopened: a smaller g than before
+            self.reopened += int(known.sum())
+            self._g[pos[known]] = g[known]
+        new = ~known
+        self._keys = np.insert(self._keys, pos[new], keys[new])
+        self._rows = np.insert(self._rows, pos[new], rows[new], axis=0)
+        self._g = np.insert(self._g, pos[new], g[new])
 
-    def _expand(self, h_parent, rows, ids, g) -> None:
+    def _cached_h(self, keys, rows) -> np.ndarray:
+        """h of states with sorted unique keys, computed only for those never seen before."""
+        h = np.empty(len(keys), dtype=np.int64)
+        known = np.zeros(len(keys), dtype=bool)
+        if len(self._h_keys):
+            pos = np.minimum(np.searchsorted(self._h_keys, keys), len(self._h_keys) - 1)
+            known = self._h_keys[pos] == keys
+            if (self._h_rows[pos[known]] != rows[known]).any():
+                raise StateKeyCollision("an evaluated state shares its key with another")
+            h[known] = self._h_vals[pos[known]]
+        new = ~known
+        if new.any():
+            h[new] = self.h(rows[new])
+            pos = np.searchsorted(self._h_keys, keys[new])
+            self._h_keys = np.insert(self._h_keys, pos, keys[new])
+            self._h_rows = np.insert(self._h_rows, pos, rows[new], axis=0)
+            self._h_vals = np.insert(self._h_vals, pos, h[new])
+        return h
+
+    def _expand(self, f_parent, rows, ids, g) -> None:
         parent, action, child, cost = self.bm.successors(rows)
         if not len(child):
             return
         if self.after_step is not None:
             child = self.after_step(child)
-        # One copy of each child, the cheapest; sorted keys make the closed lookup sequential.
+        # One copy of each child, the one of smallest g; sorted keys make the closed lookup sequential.
+        g_child = g[parent] + cost
         keys = state_keys(child)
-        order = np.lexsort((cost, keys))
+        order = np.lexsort((g_child, keys))
         keys = keys[order]
         first = np.ones(len(keys), dtype=bool)
         first[1:] = keys[1:] != keys[:-1]
         order, keys = order[first], keys[first]
-        parent, action, child, cost = parent[order], action[order], child[order], cost[order]
-        keep = ~self._closed_mask(keys, child)
-        parent, action, child, cost = parent[keep], action[keep], child[keep], cost[keep]
-        g_child = g[parent] + cost
-        f_child = g_child if self.h is None else g_child + self.h(child)
+        parent, action, child, g_child = parent[order], action[order], child[order], g_child[order]
+        keep = ~self._closed_mask(keys, child, g_child)
+        parent, action, child, g_child = parent[keep], action[keep], child[keep], g_child[keep]
+        if self.h is None:
+            f_child = g_child
+        else:                                      # pathmax: h may be inconsistent (LM-cut)
+            h = self._cached_h(keys[keep], child)
+            f_child = np.where(h >= INF, INF, np.maximum(g_child + h, f_parent))
         for f in np.unique(f_child):
             if f >= INF:
                 continue

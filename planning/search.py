@@ -2,9 +2,12 @@
 from __future__ import annotations
 
 import heapq
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
+
+from .errors import DomainError
 
 
 @dataclass
@@ -53,23 +56,37 @@ def uniform_cost_search(model, state: int, task, max_expansions: int | None = No
 
 
 def optimal_plan(bm, state: int, task, max_states: int | None = None,
-                 time_limit: float | None = None, hmax=None) -> SearchResult:
-    """An optimal plan for one task: A* with h_max, expanding each f-level in one numpy call.
+                 time_limit: float | None = None, hmax=None, heuristic: str = "lmcut") -> SearchResult:
+    """An optimal plan for one task: A* with LM-cut (or h_max), expanding each f-level in one numpy call.
 
     The same cost as uniform_cost_search, many times faster. plan is None if no
     plan exists (complete=True) or a limit stopped the search (complete=False).
-    Pass `hmax` (an HMax of the same model) to reuse its tables across calls.
+    Pass `hmax` (an HMax or LMCut of the same model) to reuse its tables across calls.
     """
     from .heuristics import HMax, goal_literals
     from .levels import CostLevels, goal_arrays, satisfied
+    from .lmcut import LMCut
 
-    hmax = hmax or HMax(bm.model, bm)
+    if heuristic not in HEURISTICS:
+        raise DomainError(heuristic, f"unknown heuristic, choose one of {', '.join(HEURISTICS)}")
+    if isinstance(hmax, LMCut):
+        lmcut, hmax = hmax, hmax.hmax
+    else:
+        hmax = hmax or HMax(bm.model, bm)
+        lmcut = _LMCUTS.get(hmax) if heuristic == "lmcut" else None
+        if heuristic == "lmcut" and lmcut is None:
+            lmcut = _LMCUTS[hmax] = LMCut(bm.model, bm, hmax)
+    h = lmcut if heuristic == "lmcut" else hmax
     conjs = goal_literals(bm.model, task)
     pos, neg = goal_arrays(bm, task)
-    levels = CostLevels(bm, state, max_states, time_limit, heuristic=lambda b: hmax(b, conjs))
+    levels = CostLevels(bm, state, max_states, time_limit, heuristic=lambda b: h(b, conjs))
     for _, rows, ids, g in levels:
         hit = np.flatnonzero(satisfied(rows, pos, neg))
         if len(hit):
             i = hit[np.argmin(g[hit])]
             return SearchResult(levels.plan_to(int(ids[i])), int(g[i]), levels.closed, True)
     return SearchResult(None, None, levels.closed, levels.exhausted)
+
+
+HEURISTICS = ("lmcut", "hmax")
+_LMCUTS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()   # an LMCut per HMax passed in, tables shared

@@ -1,0 +1,130 @@
+"""LM-cut: exact on tiny hand-built tasks, between h_max and the optimal cost on the restaurant."""
+import json
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from planning.batched import BatchedModel
+from planning.heuristics import INF_64, HMax, goal_literals
+from planning.lmcut import LMCut
+from planning.model import Op
+from planning.search import optimal_plan, uniform_cost_search
+from tests.conftest import random_walk_states
+
+
+class _Bits:
+    """The one method LM-cut needs of a BatchedModel, for hand-built one-word models."""
+
+    def __init__(self, model):
+        self.model = model
+
+    def to_bits(self, batch):
+        return ((batch[:, :1] >> np.arange(self.model.n_atoms, dtype=np.uint64)) & np.uint64(1)).astype(np.uint8)
+
+
+def tiny(n_atoms, actions):
+    """An LMCut over atoms 0..n-1 and actions [(pre atoms, add atoms, delete atoms, cost)]."""
+    mask = lambda atoms: sum(1 << a for a in atoms)
+    model = SimpleNamespace(n_atoms=n_atoms, ops=[Op(mask(p), 0, mask(a), mask(d)) for p, a, d, _ in actions],
+                            op_action=list(range(len(actions))), action_cost=[c for *_, c in actions])
+    bm = _Bits(model)
+    return LMCut(model, bm, HMax(model, bm)), HMax(model, bm)
+
+
+def h_of(h, state_atoms, goal):
+    return int(h(np.array([[sum(1 << a for a in state_atoms)]], dtype=np.uint64), goal)[0])
+
+
+def test_two_independent_goals_add_up():
+    # a costs 3, b costs 4: h_max sees 4, LM-cut both landmarks, 7.
+    lm, hm = tiny(2, [((), (0,), (), 3), ((), (1,), (), 4)])
+    assert h_of(hm, [], [[0, 1]]) == 4
+    assert h_of(lm, [], [[0, 1]]) == 7
+
+
+def test_a_shared_achiever_is_counted_once():
+    # As above plus one action adding both for 5: the optimum and LM-cut are 5.
+    lm, _ = tiny(2, [((), (0,), (), 3), ((), (1,), (), 4), ((), (0, 1), (), 5)])
+    assert h_of(lm, [], [[0, 1]]) == 5
+
+
+def test_chains_negative_literals_and_dead_ends():
+    # Atom 2 needs atom 0 (cost 2) then 10; (not 1) needs deleting atom 1 for 6.
+    lm, _ = tiny(3, [((), (0,), (), 2), ((0,), (2,), (), 10), ((), (), (1,), 6)])
+    n = 3
+    assert h_of(lm, [1], [[2, n + 1]]) == 18
+    assert h_of(lm, [0, 1], [[2, n + 1]]) == 16
+    assert h_of(lm, [], [[2, n + 1]]) == 12             # (not 1) already holds
+    lm2, _ = tiny(3, [((), (0,), (), 2)])
+    assert h_of(lm2, [], [[2]]) == INF_64                # nothing adds atom 2
+
+
+def test_a_disjunctive_goal_takes_the_cheaper_conjunction():
+    lm, _ = tiny(3, [((), (0,), (), 3), ((), (1,), (), 4), ((), (2,), (), 9)])
+    assert h_of(lm, [], [[0, 1], [2]]) == 7
+    assert h_of(lm, [], [[0, 1], [2], []]) == 0          # an empty conjunction always holds
+
+
+def test_start_state_values(restaurant):
+    # serve-water from :init costs 1475; h_max sees only fill + the longer branch (1225).
+    bm = BatchedModel(restaurant)
+    lm = LMCut(restaurant, bm)
+    goal = goal_literals(restaurant, restaurant.tasks.get("serve-water(servingtable)"))
+    assert lm(bm.pack([restaurant.init]), goal)[0] == 1450
+
+
+def test_between_hmax_and_the_optimal_cost(two_room):
+    bm = BatchedModel(two_room)
+    hm = HMax(two_room, bm)
+    lm = LMCut(two_room, bm, hm)
+    states = random_walk_states(two_room, 300, seed=5)
+    batch = bm.pack(states)
+    stronger = 0
+    for name in ["make-coffee(servingtable)", "serve-water(servingtable)", "wash(bowls)", "fruit-bowl(servingtable)"]:
+        goal = goal_literals(two_room, two_room.tasks.get(name))
+        a, b = hm(batch, goal), lm(batch, goal)
+        assert (b >= a).all()
+        stronger += int((b > a).sum())
+    assert stronger > 300                           # strictly above h_max on most of them
+    rng = np.random.default_rng(5)
+    cheap = [t for t in two_room.tasks if t.type in ("make-coffee", "clear", "wash", "pick-place")]
+    compared = 0
+    for i in rng.choice(len(states), 10, replace=False):
+        task = cheap[rng.integers(len(cheap))]
+        exact = uniform_cost_search(two_room, states[i], task, max_expansions=100_000)
+        if exact.plan is None:
+            continue
+        assert lm(bm.pack([states[i]]), goal_literals(two_room, task))[0] <= exact.cost
+        r = optimal_plan(bm, states[i], task, hmax=hm)
+        assert r.cost == exact.cost and r.expansions <= exact.expansions + 1
+        compared += 1
+    assert compared >= 5
+
+
+def test_hmax_remains_selectable(two_room):
+    bm = BatchedModel(two_room)
+    task = two_room.tasks.get("make-coffee(servingtable)")
+    a = optimal_plan(bm, two_room.init, task, heuristic="hmax")
+    b = optimal_plan(bm, two_room.init, task)
+    assert a.cost == b.cost == 650 and b.expansions < a.expansions
+
+
+@pytest.mark.slow
+def test_the_slowest_myopic_task_is_fast_with_lmcut(two_room):
+    # Sequence 4, task 21: make-coffee once the machine water is used up (h_max A*: 532,766 states).
+    from planning.sequences import load
+    from planning.task_stream import PersistentWorld
+
+    path = Path("results/myopic-oracle-internal-two-room.json")
+    if not path.is_file():
+        pytest.skip(f"{path} not here; python -m oracles.myopic --planner internal writes it")
+    rows = [r for r in json.loads(path.read_text())["per_task"] if r["sequence"] == 4]
+    seq = load(two_room, [4])[0]
+    world = PersistentWorld(two_room, seq.reset_seed)
+    for row, task in zip(rows[:21], seq.tasks):
+        if not world.begin(task):
+            world.execute([two_room.action(a) for a in row["plan"]])
+    r = optimal_plan(BatchedModel(two_room), world.state, seq.tasks[21])
+    assert r.cost == 3025 and r.expansions < 30_000
