@@ -63,6 +63,34 @@ class RandomPolicy(Policy):
         return int(actions[self.rng.integers(len(actions))])
 
 
+class GreedyValuePolicy(Policy):
+    """The greedy deployment of a learned Q (thesis's Myopic / Anticipatory RL (greedy) rows): argmax_a Q(s, τ, a)."""
+
+    name = "rl-greedy"
+
+    def __init__(self, checkpoint):
+        from planning.errors import DomainError
+
+        if not checkpoint:
+            raise DomainError("--checkpoint", "the rl-greedy agent needs --checkpoint PATH")
+        self.checkpoint = str(checkpoint)
+        self.config = {"checkpoint": self.checkpoint}
+        self._model = None
+
+    def start(self, model, sequence) -> None:
+        if model is not self._model:
+            from learning.qnet import load_value_function, read_checkpoint
+
+            self._model, self.value = model, load_value_function(self.checkpoint, model)
+            payload = read_checkpoint(self.checkpoint)
+            self.config.update({k: payload[k] for k in ("step", "eval") if k in payload})
+            cfg = payload.get("config", {})
+            self.config.update({k: cfg[k] for k in ("horizon", "seed", "gamma", "goal_reward") if k in cfg})
+
+    def act(self, state: int, task) -> int:
+        return int(self.value.greedy([state], task.index)[0])
+
+
 def make_agent(name: str, args) -> Planner | Policy:
     """The agent registered under a name, built from command-line arguments."""
     from oracles.clairvoyant import ClairvoyantOracle
@@ -73,6 +101,7 @@ def make_agent(name: str, args) -> Planner | Policy:
                                               getattr(args, "time_limit", 600.0)),
         "clairvoyant": lambda: ClairvoyantOracle(getattr(args, "K", 3), getattr(args, "time_limit", 600.0)),
         "random": lambda: RandomPolicy(getattr(args, "seed", 0)),
+        "rl-greedy": lambda: GreedyValuePolicy(getattr(args, "checkpoint", None)),
     }
     if name not in table:
         from planning.errors import DomainError
@@ -80,4 +109,4 @@ def make_agent(name: str, args) -> Planner | Policy:
     return table[name]()
 
 
-AGENTS = ("myopic-oracle", "clairvoyant", "random")
+AGENTS = ("myopic-oracle", "clairvoyant", "random", "rl-greedy")

@@ -129,6 +129,7 @@ def main() -> None:
     p.add_argument("--planner", default="fast-downward", choices=["fast-downward", "internal"])
     p.add_argument("--time-limit", type=float, default=600.0, help="planner seconds per task")
     p.add_argument("--K", type=int, default=3, help="window of the clairvoyant oracle")
+    p.add_argument("--checkpoint", default=None, help="Q-network checkpoint of the rl-greedy agent")
     args = p.parse_args()
     model = compile_domain(args.domain, args.layout)
     agent = make_agent(args.agent, args)

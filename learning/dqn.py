@@ -1,0 +1,467 @@
+"""Online value learning: the anticipatory / myopic factored Double-DQN of the thesis (Algorithm 1, §4.1).
+
+One loop over the persistent world: act ε-greedily on Q, store the transition,
+regress Q on a minibatch toward the Double-DQN target, sync the target network.
+The two horizons differ only at a completed task: the myopic target is the
+reward, the anticipatory one adds γ V_AP(s') = γ Σ_τ' P(τ') Q(s', τ', ·), exact
+over every task instance and batched (`learning.qnet.td_targets`). A per-task
+timeout bootstraps the same task (§4.1.3 a). A world reset bootstraps the
+pre-reset state as usual (§4.1.3 b), unless the domain declares its episodes
+terminal ([stream] terminal_reset, the minimal example's two-task episode).
+A task already satisfied when drawn is the AUTO pseudo-action (zero cost,
+reward R_goal), stored like any completion (see `learning.encoding`).
+
+Defaults are Table A.2; domain.toml's [training] table overrides them per
+domain, a value there may be keyed by layout and then by horizon.
+
+    python -m learning.dqn --layout two-room --horizon anticipatory --seed 0 [--steps N] [--out DIR]
+
+Writes DIR/metrics.jsonl, DIR/last.pt (everything, for resuming: rerun the same
+command) and DIR/best.pt (the network with the best greedy evaluation on 100 tasks).
+"""
+from __future__ import annotations
+
+import json
+import math
+import random
+import sys
+import time
+from collections import deque
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from tqdm import tqdm
+
+from planning import cli
+from planning.compiler import compile_domain
+from planning.errors import DomainError
+from planning.task_stream import PersistentWorld, TaskStream
+
+from .encoding import Encoding
+from .qnet import (COMPLETE, CONTINUE, TERMINAL, ValueFunction, build_network, masked_max, network_payload,
+                   read_checkpoint, save_checkpoint, td_targets)
+from .replay import Replay, mixed_batch
+
+HORIZONS = ("myopic", "anticipatory")
+
+
+@dataclass
+class Config:
+    """Training configuration; defaults are the thesis's Table A.2."""
+
+    domain: str = "domains/restaurant"
+    """domain folder"""
+    layout: str | None = None
+    """layout name (default: the domain's first)"""
+    horizon: str = "anticipatory"
+    """myopic (completion is terminal) or anticipatory (completion bootstraps V_AP)"""
+    seed: int = 0
+    """seeds the task stream, exploration, minibatches and initial weights"""
+    steps: int = 500_000
+    """total environment steps (primitive actions)"""
+    buffer_size: int = 50_000
+    """replay capacity for the agent's own transitions"""
+    batch_size: int = 128
+    """minibatch size"""
+    hidden: int = 256
+    """width of the shared encoder"""
+    lr: float = 3e-4
+    """Adam learning rate"""
+    gamma: float = 0.97
+    """discount per primitive action"""
+    eps_start: float = 1.0
+    """initial exploration rate"""
+    eps_end: float = 0.05
+    """final exploration rate"""
+    eps_decay_steps: int = 100_000
+    """steps over which ε decays exponentially from eps_start to eps_end"""
+    target_every: int = 1_000
+    """steps between target-network syncs"""
+    grad_clip: float = 1.0
+    """max gradient norm"""
+    learning_starts: int = 1_000
+    """steps of pure collection before the first update (demos count toward the minibatch)"""
+    train_every: int = 1
+    """environment steps per gradient update"""
+    goal_reward: float | None = None
+    """completion reward R_goal (RL units); None: experiments.calibrate.goal_reward"""
+    demo_tasks: int = 500
+    """myopic-oracle task outcomes seeded into the demo memory (Appendix A.1)"""
+    demo_seed: int = 0
+    """task-stream seed of the demonstrations (shared across training seeds)"""
+    demo_fraction: float = 0.2
+    """share of every minibatch reserved for demonstrations"""
+    eval_every: int = 25_000
+    """steps between greedy evaluations (best checkpoint selection)"""
+    eval_tasks: int = 100
+    """tasks per greedy evaluation"""
+    log_every: int = 1_000
+    """steps between metrics rows"""
+    checkpoint_every: int = 10_000
+    """steps between resumable checkpoints"""
+    out: str | None = None
+    """run folder (default runs/dqn/<domain>-<layout>-<horizon>-seed<seed>)"""
+
+
+def domain_defaults(model, horizon: str) -> dict:
+    """Config values from domain.toml: [training] (keyed by layout, then horizon, where a table) and [reward] gamma."""
+    names = {f.name for f in fields(Config)}
+    table = dict(model.config.get("training", {}))
+    out = {}
+    if "gamma" in model.config.get("reward", {}):
+        out["gamma"] = model.config["reward"]["gamma"]
+    for key, value in table.items():
+        if key == "goal_reward_thesis":
+            continue
+        if key not in names:
+            raise DomainError(model.files["config"], f"[training] '{key}' is not a training setting")
+        for selector in (model.layout, horizon):
+            if isinstance(value, dict):
+                if selector not in value:
+                    raise DomainError(model.files["config"], f"[training] {key} has no entry for '{selector}'")
+                value = value[selector]
+        out[key] = value
+    return out
+
+
+def default_goal_reward(model) -> float:
+    """R_goal from experiments.calibrate; FALLBACK until a calibration exists: domain.toml [training] goal_reward_thesis."""
+    try:
+        from experiments.calibrate import goal_reward
+        return goal_reward(model)
+    except (ImportError, DomainError) as e:
+        thesis = model.config.get("training", {}).get("goal_reward_thesis", {})
+        if model.layout in thesis:
+            print(f"note: {e}; using the thesis's R_goal = {thesis[model.layout]}", file=sys.stderr)
+            return float(thesis[model.layout])
+        raise
+
+
+def epsilon(cfg: Config, step: int) -> float:
+    """ε at a step: exponential decay from eps_start to eps_end over eps_decay_steps, then flat."""
+    frac = min(1.0, step / max(1, cfg.eps_decay_steps))
+    return cfg.eps_start * (cfg.eps_end / cfg.eps_start) ** frac
+
+
+def demonstrations(model, enc: Encoding, cfg: Config, r_goal: float, scale: float, terminal_reset: bool,
+                   progress: bool = True) -> Replay:
+    """The demo memory: every action transition of the first demo_tasks myopic-oracle outcomes (autos store none)."""
+    if cfg.demo_tasks <= 0:
+        return Replay(1, enc.n_words)
+    from oracles.rollouts import cached_rollout
+    records = cached_rollout(model, cfg.demo_seed, cfg.demo_tasks, planner="internal", progress=progress)
+    per_reset = model.config.get("stream", {}).get("tasks_per_reset", 50)
+    rows = []
+    for rec in records:
+        if rec.auto or not rec.plan:
+            continue
+        task = model.tasks.get(rec.task).index
+        packed = enc.pack(rec.states)
+        last = len(rec.plan) - 1
+        for k, a in enumerate(rec.plan):
+            done = k == last and rec.success
+            s2 = enc.pack([rec.after])[0] if done else packed[k + 1]
+            kind = CONTINUE
+            if done:
+                kind = TERMINAL if terminal_reset and rec.index % per_reset == per_reset - 1 else COMPLETE
+            r = -model.action_cost[a] / scale + (r_goal if done else 0.0)
+            rows.append((packed[k], task, a, r, s2, kind))
+    demos = Replay(max(1, len(rows)), enc.n_words)
+    for row in rows:
+        demos.add(*row)
+    return demos
+
+
+def greedy_evaluation(vf: ValueFunction, model, seed: int, n_tasks: int, gamma: float, r_goal: float,
+                      scale: float) -> dict:
+    """Success rate, PDDL cost, actions and discounted return per task of the greedy policy on a seeded stream."""
+    stream, world = TaskStream(model, seed), PersistentWorld(model)
+    enc = vf.enc
+    returns = []
+    for _ in range(n_tasks):
+        task, reset = stream.next()
+        if reset is not None:
+            world.reset(reset)
+        if world.begin(task):
+            returns.append(r_goal)
+            continue
+        g, k = 0.0, 0
+        while world.task is not None:
+            a = int(vf.greedy([world.state], task.index)[0])
+            step = world.act(a)
+            g += gamma ** k * (-step.cost / scale + (r_goal if step.completed else 0.0))
+            k += 1
+        returns.append(g)
+    outs = world.outcomes
+    n = len(outs)
+    return {"success_rate": sum(o.success for o in outs) / n, "cost_per_task": sum(o.cost for o in outs) / n,
+            "actions_per_task": sum(o.actions for o in outs) / n, "task_return": float(np.mean(returns))}
+
+
+class Trainer:
+    """Algorithm 1 with its state (networks, memories, world, stream, counters) kept for checkpoints."""
+
+    def __init__(self, cfg: Config, progress: bool = True):
+        # -- setup: model, encodings, R_goal, seeding --------------------------------------------
+        if cfg.horizon not in HORIZONS:
+            raise DomainError("--horizon", f"'{cfg.horizon}' is neither myopic nor anticipatory")
+        torch.set_num_threads(1)            # 2 cores shared by several engineers
+        self.cfg, self.progress = cfg, progress
+        self.model = model = compile_domain(cfg.domain, cfg.layout)
+        cfg.layout = model.layout
+        self.out = Path(cfg.out or f"runs/dqn/{model.name}-{model.layout}-{cfg.horizon}-seed{cfg.seed}")
+        cfg.out = str(self.out)
+        self.scale = float(model.config.get("reward", {}).get("cost_scale", 1))
+        self.r_goal = float(cfg.goal_reward if cfg.goal_reward is not None else default_goal_reward(model))
+        cfg.goal_reward = self.r_goal
+        stream_cfg = model.config.get("stream", {})
+        self.terminal_reset = bool(stream_cfg.get("terminal_reset", False))
+        self.per_reset = stream_cfg.get("tasks_per_reset", 50)
+        random.seed(cfg.seed)
+        np.random.seed(cfg.seed)
+        torch.manual_seed(cfg.seed)
+        self.rng = np.random.default_rng(cfg.seed)
+        self.enc = Encoding(model)
+        self.type_of = self.enc.action_type
+
+        # -- Algorithm 1, line 1: replay memory, online and target networks ---------------------
+        self.net = build_network(self.enc, cfg.hidden)
+        self.target = build_network(self.enc, cfg.hidden)
+        self.target.load_state_dict(self.net.state_dict())
+        self.opt = torch.optim.Adam(self.net.parameters(), lr=cfg.lr, foreach=True)
+        self.memory = Replay(cfg.buffer_size, self.enc.n_words)
+        self.demos = demonstrations(model, self.enc, cfg, self.r_goal, self.scale, self.terminal_reset, progress)
+
+        # -- line 2: the world and the task stream ----------------------------------------------
+        self.stream = TaskStream(model, cfg.seed)
+        self.world = PersistentWorld(model)
+        self.step = 0
+        self.tasks_done = 0
+        self.recent = deque(maxlen=100)        # (success, task return) of the last 100 tasks
+        self.type_counts = np.zeros(len(self.enc.type_names), dtype=np.int64)
+        self.stats = {"q": [], "y": [], "loss": []}
+        self.best = None
+        self.task_return, self.task_k = 0.0, 0
+        self.metrics = self.out / "metrics.jsonl"
+
+    # ---- the persistent world ------------------------------------------------------------------
+    def _last_in_episode(self) -> bool:
+        return self.terminal_reset and (self.stream.count - 1) % self.per_reset == self.per_reset - 1
+
+    def _store(self, s: int, task: int, action: int, reward: float, s2: int, kind: int) -> None:
+        packed = self.enc.pack([s, s2])
+        self.memory.add(packed[0], task, action, reward, packed[1], kind)
+
+    def _finish_task(self, success: bool) -> None:
+        self.recent.append((success, self.task_return))
+        self.tasks_done += 1
+        self.task_return, self.task_k = 0.0, 0
+        self.world.outcomes.clear()            # outcomes are summarised in `recent`; keep memory flat
+
+    def _next_task(self) -> None:
+        """Draw tasks until one is open; an already-satisfied task is the AUTO transition (line 6)."""
+        while True:
+            task, reset = self.stream.next()
+            if reset is not None:
+                self.world.reset(reset)
+            before = self.world.state
+            if not self.world.begin(task):
+                return
+            kind = TERMINAL if self._last_in_episode() else COMPLETE
+            self._store(before, task.index, self.enc.AUTO, self.r_goal, self.world.state, kind)
+            self.task_return = self.r_goal
+            self._finish_task(True)
+
+    # ---- one update (lines 8-20) ---------------------------------------------------------------
+    def update(self) -> None:
+        """One gradient step on a minibatch with the protected demo share."""
+        cfg = self.cfg
+        batch = mixed_batch(self.memory, self.demos, cfg.batch_size, cfg.demo_fraction, self.rng)
+        y = td_targets(self.net, self.target, self.enc, batch, cfg.gamma, cfg.horizon)
+        obs = torch.from_numpy(self.enc.observe(batch["states"], batch["tasks"]))
+        valid = self.enc.valid_for(batch["states"], batch["tasks"])
+        actions = torch.from_numpy(batch["actions"])
+        q = self.net(obs, torch.from_numpy(valid)).gather(1, actions[:, None])[:, 0]
+        loss = F.smooth_l1_loss(q, y)
+        self.opt.zero_grad(set_to_none=True)
+        loss.backward()
+        torch.nn.utils.clip_grad_norm_(self.net.parameters(), cfg.grad_clip)
+        self.opt.step()
+        self.stats["q"].append(float(q.detach().mean()))
+        self.stats["y"].append(float(y.mean()))
+        self.stats["loss"].append(float(loss.detach()))
+
+    def act(self, state: int, task: int, eps: float) -> int:
+        """ε-greedy over the applicable actions (line 5)."""
+        actions = self.model.applicable(state)
+        if self.rng.random() < eps:
+            return int(actions[self.rng.integers(len(actions))])
+        packed = self.enc.pack([state])
+        valid = np.zeros((1, self.enc.n_actions), dtype=bool)
+        valid[0, actions] = True
+        obs = torch.from_numpy(self.enc.observe(packed, [task]))
+        with torch.inference_mode():
+            return int(masked_max(self.net(obs, torch.from_numpy(valid)), torch.from_numpy(valid))[1][0])
+
+    # ---- the loop (lines 3-28) -----------------------------------------------------------------
+    def train(self) -> dict:
+        """Run until cfg.steps, logging, evaluating and checkpointing; returns the last metrics row."""
+        cfg = self.cfg
+        if self.world.task is None:
+            self._next_task()
+        bar = tqdm(total=cfg.steps, initial=self.step, desc=f"dqn {self.model.layout} {cfg.horizon}",
+                   unit="step", disable=not self.progress, smoothing=0.05)
+        row, t0, s0, u0, updates = {}, time.perf_counter(), self.step, 0, 0
+        while self.step < cfg.steps:
+            state, task = self.world.state, self.world.task.index
+            a = self.act(state, task, epsilon(cfg, self.step))                  # line 5
+            step = self.world.act(a)                                              # line 6
+            r = -step.cost / self.scale + (self.r_goal if step.completed else 0.0)
+            kind = CONTINUE                                                       # within task or timeout
+            if step.completed:
+                kind = TERMINAL if self._last_in_episode() else COMPLETE
+            self._store(state, task, a, r, self.world.state, kind)               # line 7
+            self.type_counts[self.type_of[a]] += 1
+            self.task_return += cfg.gamma ** self.task_k * r
+            self.task_k += 1
+            self.step += 1
+            if step.completed or step.abandoned:                                 # lines 21, 25-27
+                self._finish_task(step.completed)
+                self._next_task()
+            if self.step >= cfg.learning_starts and self.step % cfg.train_every == 0:
+                self.update()                                                     # lines 8-20
+                updates += 1
+            if self.step % cfg.target_every == 0:                                # lines 22-24
+                self.target.load_state_dict(self.net.state_dict())
+            if self.step % cfg.log_every == 0:
+                dt = time.perf_counter() - t0
+                row = self._log(eps=epsilon(cfg, self.step), steps_per_s=(self.step - s0) / dt,
+                                updates_per_s=updates / dt)
+                t0, s0, updates = time.perf_counter(), self.step, 0
+                bar.set_postfix(success=f"{row['success_rate']:.2f}", ret=f"{row['task_return']:.1f}",
+                                q=f"{row['selected_q']:.1f}")
+            if self.step % cfg.eval_every == 0 or self.step == cfg.steps:
+                self._evaluate()
+            if self.step % cfg.checkpoint_every == 0 or self.step == cfg.steps:
+                self.save()
+            bar.update(1)
+        bar.close()
+        return row
+
+    # ---- metrics, evaluation, checkpoints ------------------------------------------------------
+    def _log(self, **extra) -> dict:
+        recent = list(self.recent)
+        counts = self.type_counts
+        total = max(1, int(counts.sum()))
+        mean = lambda xs: float(np.mean(xs)) if xs else float("nan")
+        row = {"step": self.step, "tasks": self.tasks_done,
+               "success_rate": mean([s for s, _ in recent]), "task_return": mean([g for _, g in recent]),
+               "selected_q": mean(self.stats["q"]), "td_target": mean(self.stats["y"]),
+               "loss": mean(self.stats["loss"]),
+               "action_share": {n: round(int(c) / total, 5) for n, c in zip(self.enc.type_names, counts)},
+               **{k: round(v, 4) for k, v in extra.items()}}
+        self.type_counts[:] = 0
+        self.stats = {"q": [], "y": [], "loss": []}
+        self.metrics.parent.mkdir(parents=True, exist_ok=True)
+        with open(self.metrics, "a") as f:
+            f.write(json.dumps(row) + "\n")
+        return row
+
+    def _evaluate(self) -> None:
+        self.net.eval()
+        r = greedy_evaluation(ValueFunction(self.net, self.enc), self.model, 10_000 + self.cfg.seed,
+                              self.cfg.eval_tasks, self.cfg.gamma, self.r_goal, self.scale)
+        self.net.train()
+        r["step"] = self.step
+        with open(self.metrics, "a") as f:
+            f.write(json.dumps({"eval": r}) + "\n")
+        score = (r["success_rate"], r["task_return"])
+        if self.best is None or score > tuple(self.best["score"]):
+            self.best = {"score": list(score), "step": self.step, "eval": r}
+            save_checkpoint(self.out / "best.pt", network_payload(
+                self.net, self.enc, {"step": self.step, "eval": r, "config": asdict(self.cfg)}))
+
+    def save(self) -> Path:
+        """Everything needed to resume, atomically, in last.pt."""
+        w = self.world
+        payload = network_payload(self.net, self.enc, {
+            "config": asdict(self.cfg), "target": self.target.state_dict(), "opt": self.opt.state_dict(),
+            "step": self.step, "tasks_done": self.tasks_done, "recent": list(self.recent),
+            "best": self.best, "task_return": self.task_return, "task_k": self.task_k,
+            "memory": self.memory.state_dict(), "rng": self.rng.bit_generator.state,
+            "stream": {"rng": self.stream.rng.bit_generator.state, "count": self.stream.count},
+            "world": {"state": w.state, "task": None if w.task is None else w.task.index,
+                      "cost": w._cost, "actions": w._actions},
+            "torch_rng": torch.get_rng_state()})
+        return save_checkpoint(self.out / "last.pt", payload)
+
+    def resume(self, path) -> None:
+        """Continue from a last.pt written by `save` (same layout, horizon and seed)."""
+        p = read_checkpoint(path)
+        old = p.get("config", {})
+        for key in ("domain", "layout", "horizon", "seed", "hidden"):
+            if old.get(key) != getattr(self.cfg, key):
+                raise DomainError(path, f"was trained with {key}={old.get(key)!r}, not {getattr(self.cfg, key)!r}")
+        if p["signature"] != self.enc.signature():
+            raise DomainError(path, "was trained on a different compilation of this layout")
+        self.net.load_state_dict(p["net"])
+        self.target.load_state_dict(p["target"])
+        self.opt.load_state_dict(p["opt"])
+        self.memory.load_state_dict(p["memory"])
+        self.step, self.tasks_done, self.best = p["step"], p["tasks_done"], p["best"]
+        self.recent.extend(tuple(x) for x in p["recent"])
+        self.task_return, self.task_k = p["task_return"], p["task_k"]
+        self.rng.bit_generator.state = p["rng"]
+        self.stream.rng.bit_generator.state = p["stream"]["rng"]
+        self.stream.count = p["stream"]["count"]
+        w = p["world"]
+        self.world.state = w["state"]
+        self.world.task = None if w["task"] is None else self.model.tasks[w["task"]]
+        self.world._cost, self.world._actions = w["cost"], w["actions"]
+        torch.set_rng_state(p["torch_rng"])
+
+
+def make_config(args) -> Config:
+    """Config from Table A.2, then domain.toml [training], then the command line."""
+    model = compile_domain(args.domain, args.layout)
+    values = {**domain_defaults(model, args.horizon)}
+    for f in fields(Config):
+        v = getattr(args, f.name, None)
+        if v is not None:
+            values[f.name] = v
+    values["layout"] = model.layout
+    return Config(**values)
+
+
+def main() -> None:
+    p = cli.parser(__doc__.splitlines()[0])
+    p.add_argument("--horizon", required=True, choices=HORIZONS)
+    p.add_argument("--steps", type=int, default=None, help="environment steps (default 500,000)")
+    p.add_argument("--train-every", dest="train_every", type=int, default=None, help="steps per update (default 1)")
+    p.add_argument("--demo-tasks", dest="demo_tasks", type=int, default=None,
+                   help="demonstrated task outcomes (default: domain.toml [training])")
+    p.add_argument("--goal-reward", dest="goal_reward", type=float, default=None, help="R_goal (RL units)")
+    p.add_argument("--eval-every", dest="eval_every", type=int, default=None)
+    p.add_argument("--fresh", action="store_true", help="ignore an existing last.pt and start over")
+    p.add_argument("--no-progress", action="store_true")
+    args = p.parse_args()
+    cfg = make_config(args)
+    trainer = Trainer(cfg, progress=not args.no_progress)
+    last = trainer.out / "last.pt"
+    if last.is_file() and not args.fresh:
+        trainer.resume(last)
+        print(f"resumed {last} at step {trainer.step}", file=sys.stderr)
+    elif args.fresh:
+        trainer.metrics.unlink(missing_ok=True)
+    row = trainer.train()
+    best = trainer.best or {}
+    print(f"{cfg.horizon} {cfg.layout} seed {cfg.seed}: step {trainer.step}, success (last 100) "
+          f"{row.get('success_rate', float('nan')):.3f}, task return {row.get('task_return', float('nan')):.2f}, "
+          f"best greedy eval {best.get('eval')} at step {best.get('step')}; wrote {trainer.out}")
+
+
+if __name__ == "__main__":
+    cli.run(main)
