@@ -13,7 +13,7 @@ from tests.conftest import MINIMAL
 
 
 def small_config(model, out, horizon="myopic", **over) -> Config:
-    values = {**domain_defaults(model, horizon), "steps": 1600, "eps_decay_steps": 800, "learning_starts": 200,
+    values = {**domain_defaults(model, horizon), "steps": 1200, "eps_decay_steps": 800, "learning_starts": 100, "lr": 1e-3,
               "hidden": 64, "target_every": 100, "demo_fraction": 0.5, "eval_every": 10**9,
               "checkpoint_every": 1000, "log_every": 500, **over}
     return Config(domain=MINIMAL, horizon=horizon, out=str(out), **values)
@@ -46,12 +46,12 @@ def test_short_training_learns_the_first_task_and_resumes(minimal, tmp_path):
     assert {"success_rate", "task_return", "selected_q", "td_target", "action_share"} <= set(logged[-1])
     assert (tmp_path / "best.pt").is_file() and (tmp_path / "last.pt").is_file()
     # resume: a new trainer picks up the step, memory and world where the last one stopped
-    again = Trainer(small_config(minimal, tmp_path, steps=1650), progress=False)
+    again = Trainer(small_config(minimal, tmp_path, steps=1250), progress=False)
     again.resume(tmp_path / "last.pt")
-    assert again.step == 1600 and len(again.memory) == len(trainer.memory)
+    assert again.step == 1200 and len(again.memory) == len(trainer.memory)
     assert again.world.state == trainer.world.state
     again.train()
-    assert again.step == 1650
+    assert again.step == 1250
     with pytest.raises(DomainError, match="horizon"):
         Trainer(small_config(minimal, tmp_path, horizon="anticipatory"), progress=False).resume(tmp_path / "last.pt")
 
