@@ -246,6 +246,7 @@ class Trainer:
         self.best = None
         self.task_return, self.task_k = 0.0, 0
         self.metrics = self.out / "metrics.jsonl"
+        self.out.mkdir(parents=True, exist_ok=True)
 
     # ---- the persistent world ------------------------------------------------------------------
     def _last_in_episode(self) -> bool:

@@ -81,6 +81,8 @@ class Encoding:
         self.goal_pos = self.bm.pack(pos)
         self.goal_neg = self.bm.pack(neg)
         self.goal_owner = np.array(owner, dtype=np.int64)
+        self.goal_of = np.zeros((len(owner), len(self.model.tasks)), dtype=np.float32)   # binding -> task
+        self.goal_of[np.arange(len(owner)), self.goal_owner] = 1.0
 
     # ---- batched features ------------------------------------------------
     def pack(self, states) -> np.ndarray:
@@ -100,10 +102,7 @@ class Encoding:
         for w in range(self.n_words):
             s = packed[:, w, None]
             ok &= ((~s & self.goal_pos[None, :, w]) | (s & self.goal_neg[None, :, w])) == 0
-        out = np.zeros((packed.shape[0], len(self.model.tasks)), dtype=bool)
-        for j in range(out.shape[1]):
-            out[:, j] = ok[:, self.goal_owner == j].any(1)
-        return out
+        return (ok.astype(np.float32) @ self.goal_of) > 0     # some binding of the task's goal holds
 
     def applicable(self, packed: np.ndarray) -> np.ndarray:
         """(N, n_actions) bool: applicable ground actions, AUTO column False."""
