@@ -100,7 +100,7 @@ class Config:
     """tasks per greedy evaluation"""
     log_every: int = 1_000
     """steps between metrics rows"""
-    checkpoint_every: int = 10_000
+    checkpoint_every: int = 5_000
     """steps between resumable checkpoints"""
     out: str | None = None
     """run folder (default runs/dqn/<domain>-<layout>-<horizon>-seed<seed>)"""
@@ -445,7 +445,10 @@ def main() -> None:
     p.add_argument("--demo-tasks", dest="demo_tasks", type=int, default=None,
                    help="demonstrated task outcomes (default: domain.toml [training])")
     p.add_argument("--goal-reward", dest="goal_reward", type=float, default=None, help="R_goal (RL units)")
-    p.add_argument("--eval-every", dest="eval_every", type=int, default=None)
+    p.add_argument("--eps-decay-steps", dest="eps_decay_steps", type=int, default=None,
+                   help="steps of the exponential ε decay (default 100,000)")
+    p.add_argument("--eval-every", dest="eval_every", type=int, default=None, help="steps between greedy evaluations")
+    p.add_argument("--checkpoint-every", dest="checkpoint_every", type=int, default=None)
     p.add_argument("--fresh", action="store_true", help="ignore an existing last.pt and start over")
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args()

@@ -80,9 +80,19 @@ class FactoredQNet(nn.Module):
         # one matmul for the value stream's hidden layer and every head's state part
         self.from_state = nn.Linear(hidden, (n + 1) * head_hidden)
         self.value = nn.Linear(head_hidden, 1)
-        self.embeds = nn.ModuleList(nn.Embedding(v, embed) for v in vocab_sizes[:-1])
-        self.from_prefix = nn.ModuleList(nn.Linear(d * embed, head_hidden, bias=False) for d in range(1, n))
+        # Head d's first layer on [component embeddings 1..d-1] is a sum of one learned
+        # table per earlier component (a linear map of concatenated embeddings is exactly that).
+        self.prefix_tables = nn.ModuleList(
+            nn.ModuleList(nn.Embedding(vocab_sizes[k], head_hidden) for k in range(d)) for d in range(1, n))
+        for tables in self.prefix_tables:
+            for t in tables:
+                nn.init.normal_(t.weight, std=embed ** -0.5)
         self.out = nn.ModuleList(nn.Linear(head_hidden, v) for v in vocab_sizes)
+
+    def prefix_term(self, d: int) -> torch.Tensor:
+        """(P_d, head_hidden): head d's first-layer input from each distinct prefix of earlier components."""
+        p = self.table.prefixes[d]
+        return sum(t(p[:, k]) for k, t in enumerate(self.prefix_tables[d - 1]))
 
     def forward(self, obs: torch.Tensor, valid: torch.Tensor) -> torch.Tensor:
         """(N, actions) Q of every valid ground action; -inf where invalid."""
@@ -94,13 +104,14 @@ class FactoredQNet(nn.Module):
         for d, size in enumerate(self.table.sizes):
             P = self.table.uses[d].shape[1]
             pid, val = self.table.pid[d][acts], self.table.val[d][acts]
-            keys, inv = torch.unique(rows * P + pid, return_inverse=True)   # (row, prefix) pairs in use
-            krow, kpre = keys // P, keys % P
-            z = parts[krow, (d + 1) * H:(d + 2) * H]                        # the state part
+            flat = rows * P + pid
+            used = torch.zeros(N * P, dtype=torch.bool)
+            used[flat] = True                                         # (row, prefix) pairs in use
+            keys = used.nonzero()[:, 0]
+            inv = (torch.cumsum(used, 0) - 1)[flat]                   # each tuple's (row, prefix) slot
+            z = parts[keys // P, (d + 1) * H:(d + 2) * H]                       # the state part
             if d:
-                p = self.table.prefixes[d]
-                e = torch.cat([self.embeds[k](p[:, k]) for k in range(d)], dim=1)
-                z = z + self.from_prefix[d - 1](e)[kpre]                     # + the prefix part
+                z = z + self.prefix_term(d)[keys % P]                           # + the prefix part
             adv = self.out[d](torch.relu(z))                                 # (K, V_d)
             mask = torch.zeros(adv.shape, dtype=adv.dtype).index_put((inv, val), torch.ones(()))
             mean = (adv * mask).sum(-1) / mask.sum(-1)                       # over the valid values only

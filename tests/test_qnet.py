@@ -36,9 +36,8 @@ def reference_q(net, enc, state: int, task: int) -> dict:
 
         def adv(d, prefix):
             z = parts[(d + 1) * H:(d + 2) * H]
-            if d:
-                e = torch.cat([net.embeds[k](torch.tensor([c])) for k, c in enumerate(prefix)], dim=1)
-                z = z + net.from_prefix[d - 1](e)[0]
+            for k, c in enumerate(prefix):      # one learned table per earlier component
+                z = z + net.prefix_tables[d - 1][k](torch.tensor(c))
             return net.out[d](torch.relu(z)).numpy()
 
         out = {}
