@@ -78,3 +78,22 @@ def test_layout_and_horizon_keyed_training_settings(three_room, two_room):
     assert domain_defaults(three_room, "myopic")["demo_tasks"] == 480
     assert domain_defaults(two_room, "myopic")["demo_fraction"] == 0.2
     assert domain_defaults(compile_domain(MINIMAL, None), "myopic")["gamma"] == 0.99
+
+
+def test_rl_greedy_agent_loads_a_checkpoint_and_acts(two_room, tmp_path):
+    from argparse import Namespace
+
+    from experiments.agents import make_agent
+    from learning.encoding import Encoding
+    from learning.qnet import build_network, network_payload, save_checkpoint
+
+    with pytest.raises(DomainError, match="--checkpoint"):
+        make_agent("rl-greedy", Namespace(checkpoint=None))
+    enc = Encoding(two_room)
+    path = save_checkpoint(tmp_path / "q.pt", network_payload(build_network(enc, 32), enc, {"step": 7}))
+    agent = make_agent("rl-greedy", Namespace(checkpoint=str(path)))
+    agent.start(two_room, None)
+    s = two_room.reset_state(0)
+    task = next(t for t in two_room.tasks if not t.satisfied(s))
+    assert agent.act(s, task) in two_room.applicable(s)
+    assert agent.config["step"] == 7
