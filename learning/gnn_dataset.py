@@ -1,0 +1,424 @@
+"""The supervised dataset of the one-task GNN baseline (thesis §5.2.2 items 3-4, Appendix A.1).
+
+faithful   states the myopic oracle visits on seeded task streams (oracles.rollouts,
+           cached on disk): the world before the first task and after each reset,
+           the states along each executed plan, and each task's post-consumption world
+           (a plan's last state before consumption is not kept: no task starts there).
+augmented  those, plus counterfactual *prepared* states the myopic plans never visit.
+           A second persistent stream is planned, optimally, for each task AND one
+           preparatory clause, and the states along those plans are kept.
+
+The clause library is derived from the domain, with no names in Python: every
+literal (an atom or its negation) in the precondition of a ground action, plus
+every pair of positive precondition atoms of one ground action whose first
+argument is the same object (refill-water's "the jar holds water" and "the jar is
+at l": a filled jar parked where water is drawn). Literals about the agent itself
+(learning.graph.agent_predicates: its position, hand and grip) are left out:
+they do not outlast the next task. At each task a clause is drawn uniformly among
+those that are false in the current world and whose relaxed cost (h_max from that
+world) is at least `min_clause_cost`, so it means real preparation: the jar
+filled, the jar at a place where water is used, an object clean, the machine
+water restored. The joint plan is executed to its end, then the task's
+consumption is applied.
+
+Every state is labelled with C_AP by oracles.labelling (exact, all task
+instantiations, one multi-goal search per state), in parallel worker processes;
+labels are checkpointed atomically in OUT/labels.partial.json, so an interrupted
+run resumes where it stopped. The result is a torch-geometric dataset:
+OUT/processed/data.pt (graphs from learning.graph with y = C_AP and the per-task
+costs) and OUT/meta.json (each state's true atoms, the task list, the feature and
+relation names, the configuration, the timings).
+
+    python -m learning.gnn_dataset --layout three-room [--augmented] --n-states 2000 --out DIR
+"""
+from __future__ import annotations
+
+import json
+import multiprocessing as mp
+import os
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from planning import cli
+from planning.atomic import write_json
+from planning.errors import DomainError
+from planning.grounding import atom_text
+
+CHECKPOINT_SECONDS = 10.0
+
+
+@dataclass
+class DatasetConfig:
+    """What gnn_dataset builds; defaults follow the thesis (2,000 faithful states)."""
+
+    layout: str = "three-room"
+    domain: str = "domains/restaurant"
+    n_states: int = 2000            # faithful states
+    augmented: bool = False
+    n_prepared: int | None = None   # prepared states added when augmented (default 3 x n_states: 8,000 in all)
+    seed: int = 0                   # seed of the myopic rollout; the prepared stream uses seed + 1
+    workers: int = 2                # labelling processes
+    heuristic: str = "lmcut"        # of the labelling search (oracles.labelling.HEURISTICS)
+    label_time_limit: float | None = None   # seconds per label (None: exact, however long)
+    plan_time_limit: float = 120.0  # seconds per joint task + clause plan before falling back to the task alone
+    min_clause_cost: int = 200      # a clause must cost at least this much (h_max) to count as preparation
+
+
+# ---- states ------------------------------------------------------------------------------
+def record_states(records) -> list[int]:
+    """The worlds a rollout passes through: fresh worlds, states along each plan, post-consumption worlds."""
+    out = []
+    for i, rec in enumerate(records):
+        if i == 0 or rec.reset_seed is not None:
+            out.append(rec.states[0])
+        out += rec.states[1:-1]
+        out.append(rec.after)
+    return out
+
+
+def faithful_states(model, n: int, seed: int = 0, progress: bool = True) -> list[int]:
+    """n distinct states visited by the myopic oracle (oracles.rollouts.cached_rollout, planner internal)."""
+    from oracles.rollouts import cached_rollout
+
+    n_tasks = max(8, n // 4)
+    while True:
+        records = cached_rollout(model, seed, n_tasks, progress=progress)
+        states = list(dict.fromkeys(record_states(records)))
+        if len(states) >= n:
+            return states[:n]
+        n_tasks = int(n_tasks * 1.5) + 1
+
+
+class ClauseLibrary:
+    """Preparatory goal clauses derived from the domain's action preconditions (see the module docstring)."""
+
+    def __init__(self, model):
+        from learning.graph import agent_predicates
+
+        self.model = model
+        agent = agent_predicates(model)
+        n = model.n_atoms
+        world = [i for i in range(n) if model.atoms[i][0] not in agent]
+        keep = 0
+        for i in world:
+            keep |= 1 << i
+        clauses = set()
+        for op in model.ops:
+            pos = [i for i in _bits(op.pos & keep)]
+            for i in pos:
+                clauses.add(((i,), ()))
+            for i in _bits(op.neg & keep):
+                clauses.add(((), (i,)))
+            for a in pos:
+                for b in pos:
+                    ka, kb = model.atoms[a], model.atoms[b]
+                    if a < b and ka[0] != kb[0] and len(ka) > 1 and len(kb) > 1 and ka[1] == kb[1]:
+                        clauses.add(((a, b), ()))
+        self.clauses = sorted(clauses)
+        self.masks = [(sum(1 << i for i in p), sum(1 << i for i in q)) for p, q in self.clauses]
+
+    def __len__(self) -> int:
+        return len(self.clauses)
+
+    def text(self, k: int) -> str:
+        """A clause as PDDL-like text, e.g. '(and (at jar_0 servingtable) (has-water jar_0))'."""
+        p, q = self.clauses[k]
+        lits = [atom_text(self.model.atoms[i]) for i in p] + [f"(not {atom_text(self.model.atoms[i])})" for i in q]
+        return lits[0] if len(lits) == 1 else f"(and {' '.join(lits)})"
+
+    def eligible(self, state: int, hmax, bm, min_cost: int) -> list[int]:
+        """The clauses false in `state` whose relaxed cost from it is at least min_cost."""
+        false = [k for k, (p, q) in enumerate(self.masks) if not (state & p == p and not state & q)]
+        if not false:
+            return []
+        n = self.model.n_atoms
+        goal = [[*self.clauses[k][0], *(n + i for i in self.clauses[k][1])] for k in false]
+        cost = hmax.literal_costs(bm.pack([state]), goal)[0]
+        return [k for k, lits in zip(false, goal) if int(cost[lits].max()) >= min_cost
+                and int(cost[lits].max()) < np.iinfo(np.int32).max // 4]
+
+
+class JointGoal:
+    """A task's goal AND a clause: the task's DNF with the clause added to every conjunction."""
+
+    def __init__(self, task, pos: int, neg: int):
+        from planning.model import Op
+
+        self.task, self.name = task, f"{task.name} + clause"
+        self.bindings = tuple(Op(o.pos | pos, o.neg | neg, 0, 0) for o in task.bindings)
+
+    def satisfied(self, state: int) -> bool:
+        """True if the task's goal and the clause both hold."""
+        return any(state & o.pos == o.pos and not state & o.neg for o in self.bindings)
+
+
+def prepared_states(model, n: int, cfg: DatasetConfig, cache: Path, progress: bool = True) -> list[int]:
+    """n distinct states along optimal plans for (task AND a preparatory clause) on a seeded stream.
+
+    The executed plans are kept in `cache` (written atomically), so a rerun replays them.
+    """
+    from planning.batched import BatchedModel
+    from planning.heuristics import HMax
+    from planning.search import optimal_plan
+    from planning.task_stream import TaskStream
+
+    bm = BatchedModel(model)
+    hmax = HMax(model, bm)
+    library = ClauseLibrary(model)
+    rng = np.random.default_rng(cfg.seed + 1)
+    stream = TaskStream(model, cfg.seed + 1)
+    done = json.loads(cache.read_text())["tasks"] if cache.is_file() else []
+    rows: list[dict] = []
+    states: dict[int, None] = {}
+    state = None
+    bar = tqdm(total=n, desc=f"prepared states {model.layout}", unit="state", disable=not progress)
+    last_save = time.monotonic()
+    i = 0
+    while len(states) < n:
+        task, reset = stream.next()
+        if reset is not None:
+            state = model.reset_state(reset)
+            states.setdefault(state)
+        clause = int(rng.integers(1 << 30))         # drawn every task, so a replay draws the same
+        if i < len(done):
+            row = done[i]
+            if row["task"] != task.name:
+                raise DomainError(cache, f"task {i} is {row['task']}, but the stream draws {task.name}")
+            plan = [model.action(a) for a in row["plan"]]
+        else:
+            row, plan = _plan_prepared(model, bm, hmax, library, state, task, clause, cfg, optimal_plan)
+        before = len(states)
+        path = [state]
+        for a in plan:
+            path.append(model.apply(path[-1], a))
+        state = path[-1]
+        if task.satisfied(state):
+            path.pop()                          # the goal state itself: no task starts there
+            state = task.consume(state)
+            path.append(state)
+        states.update(dict.fromkeys(path))
+        if i >= len(done):
+            rows.append(row)
+        i += 1
+        bar.update(min(len(states), n) - min(before, n))
+        if rows and time.monotonic() - last_save > CHECKPOINT_SECONDS:
+            write_json(cache, {"layout": model.layout, "seed": cfg.seed + 1, "tasks": done + rows})
+            last_save = time.monotonic()
+    bar.close()
+    if rows:
+        write_json(cache, {"layout": model.layout, "seed": cfg.seed + 1, "tasks": done + rows})
+    return list(states)[:n]
+
+
+def _plan_prepared(model, bm, hmax, library, state, task, draw, cfg, optimal_plan):
+    """(cache row, plan) of one task planned with a drawn eligible clause, or alone if none fits in time."""
+    eligible = library.eligible(state, hmax, bm, cfg.min_clause_cost)
+    row = {"task": task.name, "clause": None, "plan": []}
+    if task.satisfied(state):
+        return row, []
+    plan = None
+    if eligible:
+        k = eligible[draw % len(eligible)]
+        pos, neg = library.masks[k]
+        r = optimal_plan(bm, state, JointGoal(task, pos, neg), time_limit=cfg.plan_time_limit, hmax=hmax)
+        if r.plan is not None:
+            plan, row["clause"] = r.plan, library.text(k)
+    if plan is None:
+        r = optimal_plan(bm, state, task, hmax=hmax)
+        plan = r.plan or []
+    row["plan"] = [model.actions[a] for a in plan]
+    return row, plan
+
+
+def _bits(mask: int) -> list[int]:
+    return [i for i in range(mask.bit_length()) if mask >> i & 1]
+
+
+# ---- labelling in worker processes -------------------------------------------------------
+_WORKER = {}
+
+
+def _init_worker(domain: str, layout: str, heuristic: str, time_limit) -> None:
+    from oracles.labelling import Labeller
+    from planning.compiler import compile_domain
+
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    _WORKER["labeller"] = Labeller(compile_domain(domain, layout), heuristic, time_limit)
+
+
+def _label_one(state: int):
+    lab = _WORKER["labeller"].label(state)
+    return state, lab.c_ap, [int(c) for c in lab.costs], lab.seconds, lab.complete
+
+
+def label_states(states: list[int], cfg: DatasetConfig, checkpoint: Path, known: dict | None = None,
+                 progress: bool = True) -> dict:
+    """{state: (c_ap, costs, seconds)} for every state, in cfg.workers processes, checkpointed atomically."""
+    labels = dict(known or {})
+    if checkpoint.is_file():
+        try:
+            saved = json.loads(checkpoint.read_text())
+        except json.JSONDecodeError as e:
+            raise DomainError(checkpoint, f"corrupt checkpoint: {e.msg}") from None
+        labels.update({int(s): tuple(v) for s, v in saved["labels"].items()})
+    todo = [s for s in dict.fromkeys(states) if s not in labels]
+    bar = tqdm(total=len(states), initial=len(states) - len(todo), desc="labelling C_AP", unit="state",
+               disable=not progress)
+
+    def save():
+        write_json(checkpoint, {"labels": {str(s): list(v) for s, v in labels.items()}})
+
+    last = time.monotonic()
+    if todo:
+        args = (cfg.domain, cfg.layout, cfg.heuristic, cfg.label_time_limit)
+        if cfg.workers <= 1:
+            _init_worker(*args)
+            results = map(_label_one, todo)
+            pool = None
+        else:
+            pool = mp.get_context("fork").Pool(cfg.workers, initializer=_init_worker, initargs=args)
+            results = pool.imap_unordered(_label_one, todo)
+        try:
+            for state, value, costs, seconds, complete in results:
+                if not complete:
+                    raise DomainError(f"state {state}", f"labelling stopped by the {cfg.label_time_limit}s limit")
+                labels[state] = (value, costs, seconds)
+                bar.update(1)
+                if time.monotonic() - last > CHECKPOINT_SECONDS:
+                    save()
+                    last = time.monotonic()
+        finally:
+            save()
+            if pool is not None:
+                pool.terminate()
+    bar.close()
+    return {s: labels[s] for s in states}
+
+
+# ---- the dataset on disk -----------------------------------------------------------------
+def dataset_class():
+    """LabelledStates: the torch-geometric InMemoryDataset of a gnn_dataset folder."""
+    from torch_geometric.data import InMemoryDataset
+
+    class LabelledStates(InMemoryDataset):
+        """Graphs with y = C_AP and costs = the per-task optimal costs; `meta` holds the rest."""
+
+        def __init__(self, root):
+            super().__init__(str(root), log=False)
+            self.load(self.processed_paths[0])
+            self.meta = json.loads((Path(root) / "meta.json").read_text())
+
+        @property
+        def raw_file_names(self):
+            return []
+
+        @property
+        def processed_file_names(self):
+            return ["data.pt"]
+
+        def download(self):
+            pass
+
+        def process(self):
+            raise DomainError(self.root, "no processed/data.pt: not a gnn_dataset folder")
+
+    return LabelledStates
+
+
+def load_dataset(root):
+    """The dataset of a gnn_dataset folder (a DomainError if it is missing or unreadable)."""
+    root = Path(root)
+    if not (root / "meta.json").is_file() or not (root / "processed" / "data.pt").is_file():
+        raise DomainError(root, "not a gnn_dataset folder (meta.json and processed/data.pt expected)")
+    return dataset_class()(root)
+
+
+def save_dataset(root, model, states: list[int], labels: dict, meta: dict, encoder=None) -> Path:
+    """Write graphs and labels (processed/data.pt) and meta.json into root, each atomically."""
+    import torch
+    from torch_geometric.data import InMemoryDataset
+
+    from learning.graph import GraphEncoder
+
+    root = Path(root)
+    encoder = encoder or GraphEncoder(model)
+    data = []
+    for i, s in enumerate(states):
+        c_ap, costs, _ = labels[s]
+        data.append(encoder.encode(s, y=torch.tensor([c_ap], dtype=torch.float32),
+                                   costs=torch.tensor([costs], dtype=torch.int64), index=i))
+    out = root / "processed" / "data.pt"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(".data.pt.tmp")
+    InMemoryDataset.save(data, str(tmp))
+    os.replace(tmp, out)
+    meta = {**meta, "domain": model.name, "layout": model.layout, "n": len(states),
+            "tasks": [{"task": t.name, "probability": t.probability} for t in model.tasks],
+            "node_names": encoder.node_names, "node_types": encoder.node_types,
+            "feature_names": encoder.feature_names, "relation_names": encoder.relation_names,
+            "c_ap": [labels[s][0] for s in states],
+            "label_seconds": [round(labels[s][2], 4) for s in states],
+            "atoms": [[atom_text(k) for k in model.true_atoms(s)] for s in states]}
+    write_json(root / "meta.json", meta)
+    return root
+
+
+def build(cfg: DatasetConfig, out, progress: bool = True) -> dict:
+    """Collect, label and save the dataset; returns the metadata written."""
+    from planning.compiler import compile_domain
+
+    out = Path(out)
+    model = compile_domain(cfg.domain, cfg.layout)
+    t0 = time.perf_counter()
+    states = faithful_states(model, cfg.n_states, cfg.seed, progress)
+    kinds = ["faithful"] * len(states)
+    if cfg.augmented:
+        n_prep = cfg.n_prepared if cfg.n_prepared is not None else 3 * cfg.n_states
+        seen = set(states)
+        extra = [s for s in prepared_states(model, n_prep + len(states), cfg, out / "prepared-rollout.json",
+                                            progress) if s not in seen][:n_prep]
+        states += extra
+        kinds += ["prepared"] * len(extra)
+    t_states = time.perf_counter() - t0
+    t1 = time.perf_counter()
+    labels = label_states(states, cfg, out / "labels.partial.json", progress=progress)
+    t_label = time.perf_counter() - t1
+    meta = {"config": asdict(cfg), "kinds": kinds, "seconds_states": round(t_states, 1),
+            "seconds_labelling": round(t_label, 1),
+            "label_cpu_seconds": round(sum(v[2] for v in labels.values()), 1)}
+    save_dataset(out, model, states, labels, meta)
+    return meta
+
+
+def main() -> None:
+    p = cli.parser(__doc__.splitlines()[0])
+    p.add_argument("--augmented", action="store_true", help="add counterfactual prepared states")
+    p.add_argument("--n-states", type=int, default=2000, help="faithful states (default: %(default)s)")
+    p.add_argument("--n-prepared", type=int, default=None, help="prepared states (default: 3 x n-states)")
+    p.add_argument("--workers", type=int, default=2, help="labelling processes (default: %(default)s)")
+    p.add_argument("--heuristic", default="lmcut", help="labelling search heuristic: blind, hmax, lmcut")
+    p.add_argument("--no-progress", action="store_true")
+    args = p.parse_args()
+    if not args.out:
+        raise DomainError("--out", "a dataset folder is required")
+    if args.n_states < 1:
+        raise DomainError("--n-states", f"{args.n_states} is not a positive number of states")
+    from planning.compiler import compile_domain
+    layout = compile_domain(args.domain, args.layout).layout
+    cfg = DatasetConfig(layout=layout, domain=args.domain, n_states=args.n_states, augmented=args.augmented,
+                        n_prepared=args.n_prepared, seed=args.seed, workers=args.workers,
+                        heuristic=args.heuristic)
+    t0 = time.perf_counter()
+    meta = build(cfg, args.out, progress=not args.no_progress)
+    n = len(meta["kinds"])
+    print(f"{n} states ({meta['kinds'].count('faithful')} faithful, {meta['kinds'].count('prepared')} prepared) "
+          f"in {time.perf_counter() - t0:.1f}s: states {meta['seconds_states']}s, labelling "
+          f"{meta['seconds_labelling']}s ({meta['label_cpu_seconds']} CPU s); wrote {args.out}")
+
+
+if __name__ == "__main__":
+    cli.run(main)

@@ -1,0 +1,445 @@
+"""The labelling oracle: C_AP(s) = sum_tau P(tau) C*_tau(s) (thesis Eq. 3.11), exactly.
+
+Every task of the layout's distribution is solved from s by ONE multi-goal
+search: A* by f-levels on the batched model whose goal is "some task not yet
+settled". Each task's optimal cost is settled at the first level that pops one
+of its goal states (the smallest g among them), and the search stops when every
+task is settled.
+
+Why this is exact. The heuristic at any moment is an admissible estimate of
+the cost to the nearest goal of a still-unsettled task, e.g. the minimum over
+those tasks of h_max, or LM-cut of the disjunction of their goals. For an
+unsettled task tau it is therefore <= h*_tau, whatever else has been settled:
+settling only shrinks the set, which only raises the estimate, and never above
+h*_tau while tau is in it. A* with pathmax and reopening (a closed state found
+again at a smaller g is expanded again) keeps, until tau is settled, a node of
+an optimal tau-plan open at its optimal g with f <= C*_tau. Levels are popped in
+increasing f and a goal state of tau has g <= f, so the first level holding a
+goal of tau holds one at g = C*_tau and none cheaper. Entries queued under an
+older, larger task set carry a stale (smaller) f; they are re-scored when popped
+and queued again if their f rose, which keeps the search from expanding states
+only a settled task needed.
+
+    python -m oracles.labelling --layout three-room [--state FILE] [--out FILE]
+"""
+from __future__ import annotations
+
+import heapq
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from planning import cli
+from planning.atomic import write_json
+from planning.batched import BatchedModel
+from planning.errors import DomainError
+from planning.heuristics import INF_64 as INF
+from planning.heuristics import HMax, goal_literals
+from planning.levels import StateKeyCollision, state_keys
+
+CHUNK = 1 << 16          # rows per goal test: keeps the (rows, conjunctions) arrays small
+
+
+class TaskGoals:
+    """Every task's goal as stacked conjunctions: (K, W) pos/neg words and the task of each."""
+
+    def __init__(self, bm, tasks):
+        self.bm = bm
+        self.tasks = list(tasks)
+        self.probabilities = np.array([t.probability for t in self.tasks], dtype=float)
+        ops = [(t, o) for t, task in enumerate(self.tasks) for o in task.bindings]
+        self.owner = np.array([t for t, _ in ops], dtype=np.int64)      # ascending by construction
+        self.pos = bm.pack([o.pos for _, o in ops])
+        self.neg = bm.pack([o.neg for _, o in ops])
+        self.starts = np.searchsorted(self.owner, np.arange(len(self.tasks)))
+        self.literals = [goal_literals(bm.model, t) for t in self.tasks]
+
+    def __len__(self) -> int:
+        return len(self.tasks)
+
+    def satisfied(self, rows: np.ndarray, tasks: np.ndarray | None = None) -> np.ndarray:
+        """(N, T') bool: which of `tasks` (default all) each packed state satisfies."""
+        tasks = np.arange(len(self.tasks)) if tasks is None else np.asarray(tasks)
+        out = np.zeros((len(rows), len(tasks)), dtype=bool)
+        for j, t in enumerate(tasks):
+            for k in range(self.starts[t], self.starts[t + 1] if t + 1 < len(self.tasks) else len(self.owner)):
+                p, n = self.pos[k], self.neg[k]
+                out[:, j] |= ((rows & p) == p).all(1) & ((rows & n) == 0).all(1)
+        return out
+
+
+# ---- heuristics: admissible for "the nearest goal of a still-unsettled task" -------------
+class Blind:
+    """h = 0: the multi-goal search is Dijkstra."""
+
+    name = "blind"
+
+    def __call__(self, batch: np.ndarray, unsettled: np.ndarray) -> np.ndarray:
+        return np.zeros(len(batch), dtype=np.int64)
+
+
+class MinHMax:
+    """min over the unsettled tasks of h_max, every task's from one relaxed-cost table per batch."""
+
+    name = "hmax"
+
+    def __init__(self, goals: TaskGoals, hmax: HMax | None = None):
+        bm = goals.bm
+        self.hmax = hmax or HMax(bm.model, bm)
+        self.union = [c for lits in goals.literals for c in lits]
+        self.owner = goals.owner
+        always = self.hmax.n_atoms                  # literal_costs' last column: always 0
+        width = max((len(c) for c in self.union), default=1) or 1
+        self.conj = np.full((len(self.union), width), always, dtype=np.int64)
+        for k, c in enumerate(self.union):
+            self.conj[k, : len(c)] = c
+
+    def per_task(self, batch: np.ndarray) -> np.ndarray:
+        """(N, T) h_max of every task (INF: dead end)."""
+        cost = self.hmax.literal_costs(batch, self.union)                # (N, 2 atoms + 1)
+        per_conj = cost[:, self.conj].max(-1).astype(np.int64)          # (N, K)
+        starts = np.flatnonzero(np.r_[True, self.owner[1:] != self.owner[:-1]])
+        h = np.minimum.reduceat(per_conj, starts, axis=1)
+        h[h >= np.iinfo(np.int32).max // 4] = INF
+        return h
+
+    def __call__(self, batch: np.ndarray, unsettled: np.ndarray) -> np.ndarray:
+        if not len(batch):
+            return np.zeros(0, dtype=np.int64)
+        return self.per_task(batch)[:, unsettled].min(1)
+
+
+class UnionGoal:
+    """Any heuristic with HMax's contract, h(batch, dnf) (e.g. LM-cut), on the unsettled tasks' goals joined by 'or'."""
+
+    def __init__(self, goals: TaskGoals, heuristic, name: str = "union", max_tasks: int | None = None):
+        """`max_tasks`: answer 0 (trivially admissible) while more tasks than this are unsettled,
+        where the cheap heuristic already orders the search well and the costly one would not pay."""
+        self.literals, self.h, self.name, self.max_tasks = goals.literals, heuristic, name, max_tasks
+
+    def __call__(self, batch: np.ndarray, unsettled: np.ndarray) -> np.ndarray:
+        if not len(batch) or (self.max_tasks is not None and unsettled.sum() > self.max_tasks):
+            return np.zeros(len(batch), dtype=np.int64)
+        dnf = [c for t in np.flatnonzero(unsettled) for c in self.literals[t]]
+        return self.h(batch, dnf)
+
+
+@dataclass
+class TaskCosts:
+    """The optimal cost of every task from one state (-1: no plan exists, or a limit stopped the search)."""
+
+    costs: np.ndarray           # (T,) int64
+    closed: int                 # states closed (each reopening counts again)
+    reopened: int
+    seconds: float
+    complete: bool = True       # False if a limit stopped the search before every task was settled
+    settled_at: list = field(default_factory=list)   # closed count when each task was settled
+
+
+class MultiGoalSearch:
+    """A* by f-levels whose goal is any still-unsettled task: every task's optimal cost in one search."""
+
+    def __init__(self, bm: BatchedModel, goals: TaskGoals, heuristic=None, on_pop=None):
+        """`heuristic` scores every generated state; `on_pop` (optional, costlier, e.g. LM-cut)
+        re-scores a state only when it is about to be closed, and defers it if its f rises."""
+        self.bm, self.goals = bm, goals
+        self.h = heuristic or Blind()
+        self.on_pop = on_pop
+
+    def costs(self, state: int, time_limit: float | None = None, max_states: int | None = None) -> TaskCosts:
+        """Every task's optimal cost from `state` (an int state of the model)."""
+        t0 = time.perf_counter()
+        deadline = None if time_limit is None else t0 + time_limit
+        goals, bm = self.goals, self.bm
+        T = len(goals)
+        costs = np.full(T, -1, dtype=np.int64)
+        unsettled = np.ones(T, dtype=bool)
+        settled_at = [0] * T
+        version = 0                                 # bumped whenever a task is settled
+        start = bm.pack([state])
+        keys_closed = np.zeros(0, dtype=np.uint64)
+        rows_closed = np.zeros((0, bm.n_words), dtype=np.uint64)
+        g_closed = np.zeros(0, dtype=np.int64)
+        closed = reopened = 0
+
+        def closed_lookup(keys, rows):
+            """(position, hit) of sorted unique keys in the closed arrays (collisions raise)."""
+            if not len(keys_closed):
+                return np.zeros(len(keys), dtype=np.int64), np.zeros(len(keys), dtype=bool)
+            pos = np.searchsorted(keys_closed, keys)
+            inside = pos < len(keys_closed)
+            hit = np.zeros(len(keys), dtype=bool)
+            hit[inside] = keys_closed[pos[inside]] == keys[inside]
+            if (rows_closed[pos[hit]] != rows[hit]).any():
+                raise StateKeyCollision("two states share a 64-bit key")
+            return pos, hit
+
+        def dedupe(rows, g):
+            """(indices, sorted keys): one row per state (its smallest g), none closed at a g as small."""
+            keys = state_keys(rows)
+            order = np.lexsort((g, keys))
+            keys = keys[order]
+            first = np.ones(len(keys), dtype=bool)
+            first[1:] = keys[1:] != keys[:-1]
+            order, keys = order[first], keys[first]
+            pos, hit = closed_lookup(keys, rows[order])
+            keep = ~hit
+            keep[hit] = g[order[hit]] < g_closed[pos[hit]]
+            return order[keep], keys[keep]
+
+        open_: dict[int, list] = {}
+        heap: list[int] = []
+
+        def push(rows, g, f, scored=False):
+            for level in np.unique(f):
+                if level >= INF:
+                    continue
+                sel = f == level
+                level = int(level)
+                if level not in open_:
+                    open_[level] = []
+                    heapq.heappush(heap, level)
+                open_[level].append((rows[sel], g[sel], version, scored))
+
+        h0 = self.h(start, unsettled)
+        push(start, np.zeros(1, dtype=np.int64), h0)
+        complete = True
+        while heap and unsettled.any():
+            if (deadline is not None and time.perf_counter() > deadline) or \
+                    (max_states is not None and closed >= max_states):
+                complete = False
+                break
+            f = heapq.heappop(heap)
+            chunks = open_.pop(f)
+            rows = np.concatenate([c[0] for c in chunks])
+            g = np.concatenate([c[1] for c in chunks])
+            # Rows to re-score: queued under a larger task set (their f may have risen
+            # since), or not yet seen by the on-pop heuristic.
+            stale = np.concatenate([np.full(len(c[0]), c[2] < version or (self.on_pop is not None and not c[3]))
+                                    for c in chunks])
+            sel, keys = dedupe(rows, g)
+            rows, g, stale = rows[sel], g[sel], stale[sel]
+            if stale.any():
+                h = (self.on_pop or self.h)(rows[stale], unsettled)
+                f_new = np.where(h >= INF, INF, np.maximum(g[stale] + h, f))
+                later = np.flatnonzero(stale)[f_new > f]
+                push(rows[later], g[later], f_new[f_new > f], scored=True)
+                now = np.ones(len(rows), dtype=bool)
+                now[later] = False
+                rows, g, keys = rows[now], g[now], keys[now]
+            if not len(rows):
+                continue
+            # Close: new states are inserted, reopened ones get their smaller g.
+            pos, hit = closed_lookup(keys, rows)
+            if hit.any():
+                reopened += int(hit.sum())
+                g_closed[pos[hit]] = g[hit]
+            new = ~hit
+            keys_closed = np.insert(keys_closed, pos[new], keys[new])
+            rows_closed = np.insert(rows_closed, pos[new], rows[new], axis=0)
+            g_closed = np.insert(g_closed, pos[new], g[new])
+            closed += len(rows)
+            # Settle the tasks whose goal this level reaches, at the smallest g among its goal states.
+            open_tasks = np.flatnonzero(unsettled)
+            for lo in range(0, len(rows), CHUNK):
+                sat = goals.satisfied(rows[lo: lo + CHUNK], open_tasks)
+                for j in np.flatnonzero(sat.any(0)):
+                    t = open_tasks[j]
+                    c = int(g[lo: lo + CHUNK][sat[:, j]].min())
+                    if unsettled[t] or c < costs[t]:
+                        costs[t], unsettled[t], settled_at[t] = c, False, closed
+            if unsettled.sum() < len(open_tasks):
+                version += 1
+                if not unsettled.any():
+                    break
+            parent, _, child, cost = bm.successors(rows)
+            if not len(child):
+                continue
+            g_child = g[parent] + cost
+            sel, _ = dedupe(child, g_child)
+            child, g_child = child[sel], g_child[sel]
+            if not len(child):
+                continue
+            h = self.h(child, unsettled)
+            push(child, g_child, np.where(h >= INF, INF, np.maximum(g_child + h, f)))
+        return TaskCosts(costs, closed, reopened, time.perf_counter() - t0, complete, settled_at)
+
+
+# ---- the oracle --------------------------------------------------------------------------
+HEURISTICS = ("blind", "hmax", "lmcut")
+
+
+def _lmcut_class():
+    """planning.lmcut.LMCut, or None where that module is not there yet."""
+    try:
+        from planning.lmcut import LMCut
+    except ImportError:
+        return None
+    return LMCut
+
+
+@dataclass
+class Label:
+    """C_AP of one state with every task's optimal cost."""
+
+    c_ap: float
+    costs: np.ndarray           # (T,) int64; -1 where no plan exists (then c_ap is inf)
+    seconds: float
+    closed: int
+    complete: bool
+
+    def as_json(self, tasks) -> dict:
+        """{"c_ap", "tasks": [{"task", "probability", "cost"}]} as --out writes it."""
+        return {"c_ap": self.c_ap if np.isfinite(self.c_ap) else None,
+                "tasks": [{"task": t.name, "probability": t.probability,
+                           "cost": int(c) if c >= 0 else None} for t, c in zip(tasks, self.costs)],
+                "seconds": round(self.seconds, 4), "closed": self.closed}
+
+
+class Labeller:
+    """C_AP(s) = sum_tau P(tau) C*_tau(s) over every task instantiation of a layout, by one multi-goal search.
+
+    heuristic: "blind" (Dijkstra), "hmax" (min over unsettled tasks of h_max on every
+    generated state), or "lmcut" (that, plus LM-cut of the unsettled goals' disjunction
+    on every state about to be closed; needs planning.lmcut).
+    """
+
+    def __init__(self, model, heuristic: str = "lmcut", time_limit: float | None = None):
+        if heuristic not in HEURISTICS:
+            raise DomainError("--heuristic", f"'{heuristic}' is not one of {', '.join(HEURISTICS)}")
+        self.model, self.time_limit = model, time_limit
+        self.bm = BatchedModel(model)
+        self.goals = TaskGoals(self.bm, model.tasks)
+        on_pop = None
+        if heuristic == "blind":
+            h = Blind()
+        else:
+            h = MinHMax(self.goals)
+            lmcut = _lmcut_class() if heuristic == "lmcut" else None
+            if heuristic == "lmcut" and lmcut is None:
+                heuristic = "hmax"        # the LM-cut module has not landed: h_max alone is exact too
+            elif lmcut is not None:
+                on_pop = UnionGoal(self.goals, lmcut(model, self.bm, h.hmax), "lmcut")
+        self.heuristic = heuristic
+        self.search = MultiGoalSearch(self.bm, self.goals, h, on_pop)
+
+    def label(self, state: int) -> Label:
+        """C_AP of a state exactly as given (apply the finished task's consumption first)."""
+        r = self.search.costs(state, time_limit=self.time_limit)
+        solved = r.costs >= 0
+        c_ap = float(self.goals.probabilities @ np.where(solved, r.costs, 0))
+        if not solved.all():
+            c_ap = float("inf")
+        return Label(c_ap, r.costs, r.seconds, r.closed, r.complete)
+
+
+def c_ap(model, state: int, heuristic: str = "lmcut") -> float:
+    """C_AP of one state (a convenience; build a Labeller to label many)."""
+    return Labeller(model, heuristic).label(state).c_ap
+
+
+def read_state(model, path) -> int:
+    """A state from a file: a JSON list of true atoms, or a PDDL problem file's :init."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as e:
+        raise DomainError(path, f"cannot read: {e.strerror}") from None
+    if text.lstrip().startswith("["):
+        try:
+            atoms = json.loads(text)
+        except json.JSONDecodeError as e:
+            raise DomainError(path, f"malformed JSON: {e.msg} at line {e.lineno}") from None
+        if not all(isinstance(a, str) for a in atoms):
+            raise DomainError(path, "must be a JSON list of atom strings like \"(at cup_0 shelf)\"")
+    else:
+        atoms = _pddl_init_atoms(path, text)
+    try:
+        return model.state_from_atoms([a for a in atoms if _fluent(model, a, path)])
+    except DomainError as e:
+        raise DomainError(path, e.reason) from None
+
+
+def _fluent(model, text: str, path) -> bool:
+    """True for a fluent atom; False for a static fact of the layout (kept out of states)."""
+    from planning.grounding import parse_atom_text
+    try:
+        key = parse_atom_text(text)
+    except ValueError as e:
+        raise DomainError(path, str(e)) from None
+    return key not in model.static_atoms
+
+
+def _pddl_init_atoms(path, text: str) -> list[str]:
+    """The atoms of a PDDL problem's :init (numeric fluents such as costs are skipped)."""
+    import re
+
+    lower = text.lower()
+    start = lower.find("(:init")
+    if start < 0:
+        raise DomainError(path, "neither a JSON list of atoms nor a PDDL problem with (:init")
+    depth, i = 0, start
+    while i < len(text):
+        depth += {"(": 1, ")": -1}.get(text[i], 0)
+        if depth == 0:
+            break
+        i += 1
+    else:
+        raise DomainError(path, "unbalanced parentheses in :init")
+    body = re.sub(r";[^\n]*", "", text[start + len("(:init"): i])
+    atoms, depth, begin = [], 0, 0
+    for j, ch in enumerate(body):              # the top-level groups: atoms and (= ...) numeric facts
+        if ch == "(":
+            if depth == 0:
+                begin = j
+            depth += 1
+        elif ch == ")":
+            depth -= 1
+            if depth < 0:
+                raise DomainError(path, "unbalanced parentheses in :init")
+            if depth == 0:
+                inner = body[begin + 1: j].strip()
+                if inner.startswith("="):
+                    continue
+                if "(" in inner:
+                    raise DomainError(path, f"cannot read the :init fact ({' '.join(inner.split())})")
+                atoms.append(f"({' '.join(inner.split())})")
+    return atoms
+
+
+def summary(model, label: Label) -> str:
+    """C_AP and every task's cost, one line per task, for the command line."""
+    lines = [f"{model.name} {model.layout}: C_AP = {label.c_ap:.2f} over {len(label.costs)} tasks "
+             f"({label.seconds:.2f}s, {label.closed} states closed)"]
+    for t, c in sorted(zip(model.tasks, label.costs), key=lambda x: (-x[1], x[0].name)):
+        lines.append(f"  {t.name:34s} P={t.probability:.5f}  cost {c if c >= 0 else 'none':>5}")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    from planning.compiler import compile_domain
+
+    p = cli.parser(__doc__.splitlines()[0])
+    p.add_argument("--state", default=None, help="a JSON list of true atoms or a PDDL problem file "
+                                                 "(default: the layout's start state)")
+    p.add_argument("--heuristic", default="lmcut", choices=HEURISTICS, help="(default: %(default)s)")
+    p.add_argument("--time-limit", type=float, default=None, help="seconds for the search (default: none)")
+    args = p.parse_args()
+    model = compile_domain(args.domain, args.layout)
+    state = model.init if args.state is None else read_state(model, args.state)
+    labeller = Labeller(model, args.heuristic, args.time_limit)
+    label = labeller.label(state)
+    if not label.complete:
+        raise DomainError(args.state or model.layout, f"time limit of {args.time_limit}s reached before every task was solved")
+    print(summary(model, label))
+    if args.out:
+        write_json(args.out, {"domain": model.name, "layout": model.layout, "heuristic": labeller.heuristic,
+                              **label.as_json(model.tasks)})
+        print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    cli.run(main)
