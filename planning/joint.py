@@ -7,8 +7,10 @@ applied and the stage advances (a task that then already holds completes too).
 
 Two compilations of the same window:
 - `JointSearch`: our exact A*, where completion is a vectorized step applied to
-  every generated state, and h = h_max of the current stage's goal (consistent:
-  it drops to zero exactly when the stage completes).
+  every generated state, and h = LM-cut of the stage-layered delete relaxation
+  of the stages left (`layered_relaxation`): it sees that two water tasks need
+  water twice, because the first cup's water is consumed, while a filled jar
+  carries over.
 - `joint_up_problem`: a unified-planning problem Fast Downward accepts, where
   primitive actions are blocked while the current stage's goal holds and
   zero-cost completion actions fire in first-binding order.
@@ -18,8 +20,10 @@ from __future__ import annotations
 import numpy as np
 
 from .batched import BatchedModel
+from .errors import DomainError
 from .heuristics import INF_64, HMax, goal_literals
 from .levels import CostLevels
+from .lmcut import LMCut, Relaxed, compile_relaxed
 from .search import SearchResult
 
 
@@ -31,7 +35,9 @@ class JointSearch:
         self.n = model.n_atoms
         self.bm = BatchedModel(model, extra_bits=max_window + 1)
         self.hmax = HMax(model, self.bm)
+        self.lmcut = LMCut(model, self.bm, self.hmax)
         self.max_window = max_window
+        self._relaxed: dict = {}
 
     def _stage_word(self, k: int) -> tuple[int, np.uint64]:
         bit = self.n + k
@@ -69,9 +75,21 @@ class JointSearch:
             batch[rows] = sub
         return batch
 
+    def relaxation(self, tasks: list, stage: int) -> Relaxed:
+        """The stage-layered relaxation of a window from a stage on (cached)."""
+        key = (tuple(t.index for t in tasks), stage)
+        if key not in self._relaxed:
+            self._relaxed[key] = layered_relaxation(self.lmcut, self.model.n_atoms, tasks, stage)
+        return self._relaxed[key]
+
     def plan(self, state: int, tasks: list, max_states: int | None = None,
-             time_limit: float | None = None) -> SearchResult:
-        """An optimal plan that completes the tasks in order from a world state."""
+             time_limit: float | None = None, heuristic: str = "layered") -> SearchResult:
+        """An optimal plan that completes the tasks in order from a world state.
+
+        heuristic: "layered" (LM-cut of the stages left), "lmcut" or "hmax" (of the current stage).
+        """
+        if heuristic not in ("layered", "lmcut", "hmax"):
+            raise DomainError(heuristic, "unknown joint heuristic, choose layered, lmcut or hmax")
         K = len(tasks)
         if K > self.max_window:
             raise ValueError(f"window of {K} tasks, built for at most {self.max_window}")
@@ -83,8 +101,12 @@ class JointSearch:
             out = np.zeros(len(batch), dtype=np.int64)
             for k in range(K):
                 sel = stage == k
-                if sel.any():
-                    out[sel] = self.hmax(batch[sel], goals[k])
+                if not sel.any():
+                    continue
+                if heuristic == "layered":
+                    out[sel] = self.lmcut.of_relaxed(batch[sel], self.relaxation(tasks, k))
+                else:
+                    out[sel] = (self.lmcut if heuristic == "lmcut" else self.hmax)(batch[sel], goals[k])
             return out
 
         levels = CostLevels(self.bm, self.bm.unpack(start)[0], max_states, time_limit, heuristic=h,
@@ -96,6 +118,77 @@ class JointSearch:
                 i = hit[np.argmin(g[hit])]
                 return SearchResult(levels.plan_to(int(ids[i])), int(g[i]), levels.closed, True)
         return SearchResult(None, None, levels.closed, levels.exhausted)
+
+
+def layered_relaxation(lmcut: LMCut, n: int, tasks: list, first: int) -> Relaxed:
+    """The stage-layered delete relaxation of a window's stages first..K-1, compiled for LM-cut.
+
+    Literal p@k (key (k, p)) holds at some time during stage k; every action has
+    a copy per stage. Stage k's completion needs its goal @k (and stage k-1
+    done) and adds done@k; its consumption's effects hold @k+1. A literal
+    carries over from @k to @k+1 unless the consumption may delete it: then it
+    carries over only next to the goal of a binding that keeps it (that binding
+    fired, so its goal held) and, if one binding before it deletes the literal,
+    the negation of one literal of that binding's goal (it did not fire).
+    Every real plan of the window maps to a relaxed plan: admissible.
+    """
+    K = len(tasks)
+    neg = lambda lit: lit + n if lit < n else lit - n
+    lits = lambda mask, offset=0: [i + offset for i in range(mask.bit_length()) if mask >> i & 1]
+    conj = lambda op: lits(op.pos) + lits(op.neg, n)
+    base = lmcut.achievers()
+    rows, costs = [], {}
+    for k in range(first, K):
+        done_before = [("done", k - 1)] if k > first else []
+        for pre, o, e in base:
+            rows.append(([(k, p) for p in pre], (k, o), (k, e)))
+        for o, c in enumerate(lmcut.operator_costs()):
+            costs[(k, o)] = c
+        bindings = tasks[k].bindings
+        for b, op in enumerate(bindings):
+            name = ("complete", k, b)
+            costs[name] = 0
+            pre = [(k, q) for q in conj(op)] + done_before
+            rows.append((pre, name, ("done", k)))
+            if k + 1 == K:
+                continue
+            for e in lits(op.add) + lits(op.dele & ~op.add, n):
+                rows.append((pre, name, (k + 1, e)))
+            for cp, cn, ca, cd in op.cond:
+                cpre = pre + [(k, q) for q in lits(cp) + lits(cn, n)]
+                for e in lits(ca) + lits(cd & ~ca, n):
+                    rows.append((cpre, name, (k + 1, e)))
+        if k + 1 == K:
+            continue
+        # Which bindings' consumption may remove a literal: unconditionally or under a condition.
+        kills = [dict() for _ in bindings]
+        for b, op in enumerate(bindings):
+            for e in lits(op.dele & ~op.add) + lits(op.add, n):
+                kills[b][e] = None
+            for cp, cn, ca, cd in op.cond:
+                for e in lits(cd & ~ca) + lits(ca, n):
+                    kills[b].setdefault(e, lits(cp) + lits(cn, n) or None)
+        for p in range(2 * n):
+            name = ("carry", k, p)
+            costs[name] = 0
+            keep = [(k, p), ("done", k)]
+            if not any(p in kb for kb in kills):
+                rows.append((keep, name, (k + 1, p)))
+                continue
+            for f, op in enumerate(bindings):
+                cond = kills[f].get(p, [])
+                if cond is None:
+                    continue                            # f fired: p is gone
+                pre = keep + [(k, q) for q in conj(op)]
+                earlier = [b for b in range(f) if kills[b].get(p, 0) is None]
+                options = [[]]
+                if len(earlier) == 1:                   # that binding did not fire: one of its literals failed
+                    options = [[(k, neg(q))] for q in conj(bindings[earlier[0]])] or [[]]
+                if cond:                                # f fired but its conditional delete did not
+                    options = [o + [(k, neg(x))] for o in options for x in cond]
+                for extra in options:
+                    rows.append((pre + extra, name, (k + 1, p)))
+    return compile_relaxed(rows, costs, ("done", K - 1), {(first, p): p for p in range(2 * n)})
 
 
 def joint_up_problem(model, state: int, tasks: list):

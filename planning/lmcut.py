@@ -14,12 +14,15 @@ zero. Admissible (not consistent: A* must reopen, see levels.CostLevels).
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from .errors import DomainError
 from .heuristics import INF, INF_64, HMax
 
-CHUNK = 1024        # states per numpy pass: keeps the (states, achievers) arrays in cache
+REACH = True        # the standard cut; False takes every finite literal outside the zone
+CHUNK = 512         # states per numpy pass: keeps the (achievers, states) arrays in cache
 
 
 class LMCut:
@@ -54,13 +57,17 @@ class LMCut:
         for atom in _bits(dele & ~add):           # add wins over delete
             self._achievers.append((pre, op, n + atom))
 
-    # ---- tables ------------------------------------------------------------
-    def tables(self, goal: list[list[int]]):
-        """Compact achiever tables for the literals a goal can depend on (cached per goal).
+    def achievers(self) -> list:
+        """[(precondition literals, operator, reached literal)] of the model's normal form."""
+        return list(self._achievers)
 
-        Columns: the relevant literals, then TRUE (always reached, pads short
-        preconditions), then the goal literal. Achievers are sorted by effect.
-        """
+    def operator_costs(self) -> list:
+        """The cost of each operator (a variant of a ground action) of achievers()."""
+        return list(self._op_cost)
+
+    # ---- tables ------------------------------------------------------------
+    def tables(self, goal: list[list[int]]) -> "Relaxed":
+        """The relaxed task of a DNF goal, restricted to what it can depend on (cached per goal)."""
         key = tuple(tuple(c) for c in goal)
         if key in self._tables:
             return self._tables[key]
@@ -68,90 +75,121 @@ class LMCut:
             for lit in conj:
                 if not 0 <= lit < self.n_literals:
                     raise DomainError("goal", f"literal {lit} is outside 0..{self.n_literals - 1}")
-        relevant = {lit for conj in goal for lit in conj}
-        frontier = list(relevant)
-        while frontier:
-            for i in self._by_effect.get(frontier.pop(), []):
-                for p in self._achievers[i][0]:
-                    if p not in relevant:
-                        relevant.add(p)
-                        frontier.append(p)
-        lits = sorted(relevant)
-        col = {lit: j for j, lit in enumerate(lits)}
-        true_col, goal_col = len(lits), len(lits) + 1
-        rows = [(self._achievers[i][0], self._achievers[i][1], lit) for lit in lits
-                for i in self._by_effect.get(lit, [])]
-        ops = sorted({o for _, o, _ in rows})
-        op_col = {o: j for j, o in enumerate(ops)}
-        rows = [(p, op_col[o], lit) for p, o, lit in rows]
-        rows += [(conj, len(ops) + j, None) for j, conj in enumerate(goal)]   # zero-cost goal operators
-        op_cost = np.array([self._op_cost[o] for o in ops] + [0] * len(goal), dtype=np.int32)
-        width = max((len(p) for p, _, _ in rows), default=1) or 1
-        pre = np.full((len(rows), width), true_col, dtype=np.int64)
-        eff = np.empty(len(rows), dtype=np.int64)
-        owner = np.empty(len(rows), dtype=np.int64)
-        for r, (p, o, lit) in enumerate(rows):
-            pre[r, : len(p)] = [col[q] for q in p]
-            eff[r] = goal_col if lit is None else col[lit]
-            owner[r] = o
-        # Effects are ascending (goal last): reduceat over contiguous runs of one effect.
-        targets, starts = np.unique(eff, return_index=True)
-        self._tables[key] = (np.array(lits, dtype=np.int64), pre, eff, owner, op_cost, targets, starts)
+        rows = list(self._achievers) + [(conj, ("goal", j), "goal") for j, conj in enumerate(goal)]
+        costs = dict(enumerate(self._op_cost))
+        costs.update({("goal", j): 0 for j in range(len(goal))})
+        self._tables[key] = compile_relaxed(rows, costs, "goal", {lit: lit for lit in range(self.n_literals)})
         return self._tables[key]
 
     # ---- the heuristic -----------------------------------------------------
     def __call__(self, batch: np.ndarray, goal: list[list[int]]) -> np.ndarray:
         """(N,) LM-cut value of each state for a DNF goal of literal lists (INF_64: dead end)."""
+        return self.of_relaxed(batch, self.tables(goal))
+
+    def of_relaxed(self, batch: np.ndarray, task: "Relaxed") -> np.ndarray:
+        """(N,) LM-cut of a compiled relaxed task whose state literals mirror each state's."""
         out = np.zeros(len(batch), dtype=np.int64)
-        if not len(batch):
-            return out
-        tables = self.tables(goal)
         for lo in range(0, len(batch), CHUNK):
-            out[lo: lo + CHUNK] = self._chunk(batch[lo: lo + CHUNK], tables)
+            part = batch[lo: lo + CHUNK]
+            out[lo: lo + CHUNK] = lmcut_values(task.holds(self.bm.to_bits(part).astype(bool).T), task)
         return out
 
-    def _initial(self, batch, lits) -> np.ndarray:
-        """(columns, N) bool: which literals hold in each state (TRUE yes, goal no)."""
-        bits = self.bm.to_bits(batch).astype(bool).T
-        half = self.n_literals // 2
-        holds = np.zeros((len(lits) + 2, len(batch)), dtype=bool)
-        pos = lits < half
-        holds[: len(lits)][pos] = bits[lits[pos]]
-        holds[: len(lits)][~pos] = ~bits[lits[~pos] - half]
-        holds[len(lits)] = True
-        return holds
 
-    def _chunk(self, batch, tables) -> np.ndarray:
-        # Arrays are (literals, achievers or operators; states): every gather copies whole rows.
-        lits, pre, eff, owner, base, targets, starts = tables
-        goal_col = len(lits) + 1
-        holds = self._initial(batch, lits)
-        n = len(batch)
-        h = np.zeros(n, dtype=np.int64)
-        op_cost = np.repeat(base[:, None], n, axis=1)
-        hm = np.where(holds, 0, INF).astype(np.int32)
-        wide = _width_groups(pre, len(lits))
-        live = np.arange(n)
-        while len(live):
-            cost = op_cost[owner]
-            hm = _hmax_fixpoint(hm, cost, pre, wide, targets, starts)
-            g = hm[goal_col]
-            dead = g >= INF
-            h[live[dead]] = INF_64
-            keep = ~dead & (g > 0)
-            if not keep.all():
-                live, hm, holds = live[keep], hm[:, keep], holds[:, keep]
-                op_cost, cost = op_cost[:, keep], cost[:, keep]
-                if not len(live):
-                    break
-            cut = _cut(hm, cost, holds, pre, wide, eff, goal_col)
-            k = len(live)
-            in_cut = np.zeros(op_cost.shape, dtype=bool)
-            in_cut.reshape(-1)[(owner[:, None] * k + np.arange(k))[cut]] = True
-            m = np.where(in_cut, op_cost, INF).min(0)
-            h[live] += m
-            op_cost -= np.where(in_cut, m[None, :], 0).astype(np.int32)
-        return h
+class Relaxed(NamedTuple):
+    """A delete-relaxed task as arrays: columns are literals, then TRUE; achievers sorted by effect."""
+
+    pre: np.ndarray          # (achievers, width) precondition columns, padded with TRUE
+    eff: np.ndarray          # (achievers,) reached column
+    owner: np.ndarray        # (achievers,) operator
+    op_cost: np.ndarray      # (operators,) int32
+    targets: np.ndarray      # columns with achievers, ascending
+    starts: np.ndarray       # first achiever of each target
+    wide: list               # _width_groups(pre)
+    goal_col: int
+    state_cols: np.ndarray   # columns that mirror a literal of the state ...
+    state_lits: np.ndarray   # ... that literal (n + i: not atom i)
+    n_cols: int
+    keys: list               # the key of each column but TRUE
+
+    def holds(self, bits: np.ndarray) -> np.ndarray:
+        """(columns, N) bool: the initial literals, from (atoms, N) state bits."""
+        n = bits.shape[0]
+        out = np.zeros((self.n_cols, bits.shape[1]), dtype=bool)
+        pos = self.state_lits < n
+        out[self.state_cols[pos]] = bits[self.state_lits[pos]]
+        out[self.state_cols[~pos]] = ~bits[self.state_lits[~pos] - n]
+        out[self.n_cols - 1] = True
+        return out
+
+
+def compile_relaxed(achievers: list, costs: dict, goal, initial: dict) -> Relaxed:
+    """Arrays of a relaxed task: achievers [(precondition keys, operator, reached key)], operator
+    costs {operator: cost}, the goal key, and {key: state literal} for the keys a state sets.
+
+    Keys are any hashable names of relaxed literals. Only what the goal can
+    depend on is kept (backwards over achievers from the goal).
+    """
+    by_eff: dict = {}
+    for i, (_, _, e) in enumerate(achievers):
+        by_eff.setdefault(e, []).append(i)
+    relevant, frontier = {goal}, [goal]
+    while frontier:
+        for i in by_eff.get(frontier.pop(), []):
+            for p in achievers[i][0]:
+                if p not in relevant:
+                    relevant.add(p)
+                    frontier.append(p)
+    keys = [k for k in initial if k in relevant] + [k for k in relevant if k not in initial]
+    col = {k: j for j, k in enumerate(keys)}
+    true_col = len(keys)
+    rows = sorted((col[e], i) for e in keys for i in by_eff.get(e, []))
+    ops = sorted({achievers[i][1] for _, i in rows}, key=repr)
+    op_col = {o: j for j, o in enumerate(ops)}
+    width = max((len(achievers[i][0]) for _, i in rows), default=1) or 1
+    pre = np.full((len(rows), width), true_col, dtype=np.int64)
+    eff = np.empty(len(rows), dtype=np.int64)
+    owner = np.empty(len(rows), dtype=np.int64)
+    for r, (c, i) in enumerate(rows):
+        p, o, _ = achievers[i]
+        pre[r, : len(p)] = [col[q] for q in p]
+        eff[r], owner[r] = c, op_col[o]
+    targets, starts = np.unique(eff, return_index=True)
+    state = [(col[k], lit) for k, lit in initial.items() if k in col]
+    return Relaxed(pre, eff, owner, np.array([costs[o] for o in ops], dtype=np.int32), targets, starts,
+                   _width_groups(pre, true_col), col[goal],
+                   np.array([c for c, _ in state], dtype=np.int64), np.array([l for _, l in state], dtype=np.int64),
+                   true_col + 1, keys)
+
+
+def lmcut_values(holds: np.ndarray, task: Relaxed) -> np.ndarray:
+    """(N,) LM-cut of each state given its initial literals (columns, N); INF_64 for dead ends."""
+    # Arrays are (literals, achievers or operators; states): every gather copies whole rows.
+    pre, eff, owner, wide, goal_col = task.pre, task.eff, task.owner, task.wide, task.goal_col
+    n = holds.shape[1]
+    h = np.zeros(n, dtype=np.int64)
+    op_cost = np.repeat(task.op_cost[:, None], n, axis=1)
+    hm = np.where(holds, 0, INF).astype(np.int32)
+    live = np.arange(n)
+    while len(live):
+        cost = op_cost[owner]
+        hm = _hmax_fixpoint(hm, cost, pre, wide, task.targets, task.starts)
+        g = hm[goal_col]
+        dead = g >= INF
+        h[live[dead]] = INF_64
+        keep = ~dead & (g > 0)
+        if not keep.all():
+            live, hm, holds = live[keep], hm[:, keep], holds[:, keep]
+            op_cost, cost = op_cost[:, keep], cost[:, keep]
+            if not len(live):
+                break
+        cut = _cut(hm, cost, holds, pre, wide, eff, goal_col)
+        k = len(live)
+        in_cut = np.zeros(op_cost.shape, dtype=bool)
+        in_cut.reshape(-1)[(owner[:, None] * k + np.arange(k))[cut]] = True
+        m = np.where(in_cut, op_cost, INF).min(0)
+        h[live] += m
+        op_cost -= np.where(in_cut, m[None, :], 0).astype(np.int32)
+    return h
 
 
 def _width_groups(pre, pad: int) -> list:
@@ -200,25 +238,27 @@ def _cut(hm, cost, holds, pre, wide, eff, goal_col) -> np.ndarray:
         best[sel] = np.where(better, v, best[sel])
         pcf[sel] = np.where(better, col[:, None], pcf[sel])
     flat_pcf = pcf * n + np.arange(n)
-    flat_eff = eff[:, None] * n + np.arange(n)
     zero = cost == 0
     zone = np.zeros(hm.shape, dtype=bool)
     zone[goal_col] = True
     z = zone.reshape(-1)
     while True:                              # backwards through zero-cost achievers
-        grow = z[flat_eff] & zero & ~z[flat_pcf]
+        grow = zone[eff] & zero & ~z[flat_pcf]
         if not grow.any():
             break
         z[flat_pcf[grow]] = True
+    into = zone[eff]
+    if not REACH:                            # every finite literal outside the zone: a superset, still a landmark
+        return into & (best < INF) & ~z[flat_pcf]
     reach = holds.copy()
     r = reach.reshape(-1)
-    outside = ~z[flat_eff]
+    flat_eff = eff[:, None] * n + np.arange(n)
     while True:                              # forwards from the state, never into the zone
-        grow = r[flat_pcf] & outside & ~r[flat_eff]
+        grow = r[flat_pcf] & ~into & ~reach[eff]
         if not grow.any():
             break
         r[flat_eff[grow]] = True
-    return r[flat_pcf] & ~outside
+    return r[flat_pcf] & into
 
 
 def _bits(mask: int) -> list[int]:

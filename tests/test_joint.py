@@ -4,6 +4,7 @@ import re
 import pytest
 from planning.batched import BatchedModel
 from planning.fast_downward import run_planner
+from planning.heuristics import goal_literals
 from planning.joint import JointSearch, joint_up_problem
 from planning.search import optimal_plan
 from planning.task_stream import PersistentWorld
@@ -44,13 +45,14 @@ def test_short_windows_match_fast_downward(two_room, joint, names, cost):
     assert all(o.success for o in world.outcomes) and sum(o.cost for o in world.outcomes) == cost
 
 
-def test_two_water_tasks_fetch_the_jar(two_room, joint):
+@pytest.mark.parametrize("heuristic", ["lmcut", pytest.param("layered", marks=pytest.mark.slow)])
+def test_two_water_tasks_fetch_the_jar(two_room, joint, heuristic):
     # Myopic: 1475 from the start, then 1300 for the second (the robot is at the table).
     # Jointly: fetch and fill the jar (move 25, pick 100, move 200, fill 1000, move 50, place 100),
     # then two refills with cup_0 (move 200, pick 100, move 200, refill 50, place 100; pick 100,
     # refill 50, place 100): 2375 < 2775.
     water = two_room.tasks.get("serve-water(servingtable)")
-    r = joint.plan(two_room.reset_state(0), [water, water])
+    r = joint.plan(two_room.reset_state(0), [water, water], heuristic=heuristic)
     assert r.cost == 2375
     assert "fill(jar_0, water_fountain, fountain)" in [two_room.actions[a] for a in r.plan]
 
@@ -84,3 +86,49 @@ def test_clairvoyant_window_timeout_falls_back_and_is_marked(two_room):
     water = two_room.tasks.get("serve-water(servingtable)")
     reply = oracle.plan(two_room.reset_state(0), water, [water])
     assert reply.info["bounded"] and not reply.info["optimal"] and len(reply.plan) == 5
+
+
+def joint_states_along(joint, state, window, plan):
+    """The joint states a plan passes through, stage completions applied, with the cost so far."""
+    rows = joint._complete(joint.bm.pack([state | (1 << joint.n)]), window)
+    out = [(rows, 0)]
+    g = 0
+    for a in plan:
+        rows, cost = joint.bm.step(rows, [a])
+        rows = joint._complete(rows, window)
+        g += int(cost[0])
+        out.append((rows, g))
+    return out
+
+
+@pytest.mark.parametrize("names,cost", [(["make-coffee(servingtable)", "wash(bowls)"], 650),
+                                        (["clear(servingtable)", "pick-place(plate_0, shelf)"], 575),
+                                        (["clear(servingtable)", "pick-place(plate_0, shelf)",
+                                          "pick-place(cup_0, servingtable)"], 1000)])
+def test_layered_relaxation_is_admissible_along_optimal_plans(two_room, joint, names, cost):
+    # Exact costs by A* with LM-cut of the current stage alone, then the
+    # layered LM-cut of every state on that optimal plan stays below the cost still to pay.
+    state = two_room.reset_state(0)
+    window = [two_room.tasks.get(n) for n in names]
+    exact = joint.plan(state, window, heuristic="lmcut")
+    assert exact.cost == cost
+    layered = joint.plan(state, window)
+    assert layered.cost == exact.cost and layered.expansions <= exact.expansions
+    K = len(window)
+    for rows, g in joint_states_along(joint, state, window, exact.plan):
+        stage = int(joint._stages(rows, K)[0])
+        if stage < K:
+            h = int(joint.lmcut.of_relaxed(rows, joint.relaxation(window, stage))[0])
+            assert h <= exact.cost - g
+
+
+def test_layered_relaxation_sees_the_second_water(two_room, joint):
+    # Per stage, LM-cut sees one water task (1450); layered over both: the first cup's water is
+    # consumed, so the second needs water again; a jar filled once carries over (1500 < 2 fills).
+    water = two_room.tasks.get("serve-water(servingtable)")
+    start = joint.bm.pack([two_room.reset_state(0) | (1 << joint.n)])
+    goal = goal_literals(two_room, water)
+    assert int(joint.lmcut(start, goal)[0]) == 1450
+    assert int(joint.lmcut.of_relaxed(start, joint.relaxation([water, water], 0))[0]) == 1500
+    coffee = two_room.tasks.get("make-coffee(servingtable)")
+    assert int(joint.lmcut.of_relaxed(start, joint.relaxation([water, coffee], 0))[0]) == 1600
