@@ -8,13 +8,20 @@ augmented  those, plus counterfactual *prepared* states the myopic plans never v
            A second persistent stream is planned, optimally, for each task AND one
            preparatory clause, and the states along those plans are kept.
 
-The clause library is derived from the domain, with no names in Python: every
-literal (an atom or its negation) in the precondition of a ground action, plus
-every pair of positive precondition atoms of one ground action whose first
-argument is the same object (refill-water's "the jar holds water" and "the jar is
-at l": a filled jar parked where water is drawn). Literals about the agent itself
-(learning.graph.agent_predicates: its position, hand and grip) are left out:
-they do not outlast the next task. At each task a clause is drawn uniformly among
+The clause library is derived from the domain, with no names in Python. A literal
+(an atom or its negation) of a ground action's precondition is a clause (a) if
+some action that needs it leaves it standing (refill-water needs the jar to hold
+water and keeps it so; fill needs a clean vessel), or (b) if it is a positive
+resource that the action needing it uses up and only an action costing at least
+`min_clause_cost` restores (make-coffee uses up the machine water, pour at 200
+restores it). Literals every consumer undoes and anyone can cheaply redo (an
+object at a place, which pick undoes; a dirty object, which wash undoes) are not
+preparation. Also a clause: every pair of positive precondition atoms of one
+ground action whose first argument is the same object (refill-water's "the jar
+holds water" and "the jar is at l": a filled jar parked where water is drawn)
+that the action leaves standing.
+Literals about the agent itself (learning.graph.agent_predicates: its position,
+hand and grip) are left out: they do not outlast the next task. At each task a clause is drawn uniformly among
 those that are false in the current world and whose relaxed cost (h_max from that
 world) is at least `min_clause_cost`, so it means real preparation: the jar
 filled, the jar at a place where water is used, an object clean, the machine
@@ -96,23 +103,34 @@ def faithful_states(model, n: int, seed: int = 0, progress: bool = True) -> list
 class ClauseLibrary:
     """Preparatory goal clauses derived from the domain's action preconditions (see the module docstring)."""
 
-    def __init__(self, model):
+    def __init__(self, model, min_cost: int = 200):
+        """`min_cost`: the cheapest restoring action that makes a used-up precondition a resource."""
         from learning.graph import agent_predicates
 
-        self.model = model
+        self.model, self.min_cost = model, min_cost
         agent = agent_predicates(model)
         n = model.n_atoms
         world = [i for i in range(n) if model.atoms[i][0] not in agent]
         keep = 0
         for i in world:
             keep |= 1 << i
-        clauses = set()
-        for op in model.ops:
-            pos = [i for i in _bits(op.pos & keep)]
-            for i in pos:
-                clauses.add(((i,), ()))
+        undone = {}                             # literal -> does every action requiring it undo it?
+        cheapest = {}                           # atom -> cheapest cost of an action adding it
+        for op, a in zip(model.ops, model.op_action):
+            for i in _bits(op.add | _cond_adds(op)):
+                cheapest[i] = min(cheapest.get(i, 1 << 62), model.action_cost[a])
+            for i in _bits(op.pos & keep):
+                undone[(i, True)] = undone.get((i, True), True) and bool(op.dele >> i & 1)
             for i in _bits(op.neg & keep):
-                clauses.add(((), (i,)))
+                undone[(i, False)] = undone.get((i, False), True) and bool(op.add >> i & 1)
+        clauses = set()
+        for (i, positive), gone in undone.items():
+            # (a) some action needs it and leaves it standing, or (b) a resource an action
+            # uses up and only a costly action restores (the machine water)
+            if not gone or (positive and cheapest.get(i, 0) >= self.min_cost):
+                clauses.add(((i,), ()) if positive else ((), (i,)))
+        for op in model.ops:
+            pos = [i for i in _bits(op.pos & keep) if not op.dele >> i & 1]     # left standing by the action
             for a in pos:
                 for b in pos:
                     ka, kb = model.atoms[a], model.atoms[b]
@@ -168,7 +186,7 @@ def prepared_states(model, n: int, cfg: DatasetConfig, cache: Path, progress: bo
 
     bm = BatchedModel(model)
     hmax = HMax(model, bm)
-    library = ClauseLibrary(model)
+    library = ClauseLibrary(model, cfg.min_clause_cost)
     rng = np.random.default_rng(cfg.seed + 1)
     stream = TaskStream(model, cfg.seed + 1)
     done = json.loads(cache.read_text())["tasks"] if cache.is_file() else []
@@ -232,6 +250,14 @@ def _plan_prepared(model, bm, hmax, library, state, task, draw, cfg, optimal_pla
         plan = r.plan or []
     row["plan"] = [model.actions[a] for a in plan]
     return row, plan
+
+
+def _cond_adds(op) -> int:
+    """The atoms an op's conditional effects may add."""
+    out = 0
+    for _, _, add, _ in op.cond:
+        out |= add
+    return out
 
 
 def _bits(mask: int) -> list[int]:
@@ -367,8 +393,22 @@ def save_dataset(root, model, states: list[int], labels: dict, meta: dict, encod
     return root
 
 
-def build(cfg: DatasetConfig, out, progress: bool = True) -> dict:
-    """Collect, label and save the dataset; returns the metadata written."""
+def known_labels(folders) -> dict:
+    """Labels already computed in other gnn_dataset folders (their labels.partial.json), by state."""
+    known = {}
+    for folder in folders or []:
+        path = Path(folder) / "labels.partial.json"
+        if not path.is_file():
+            raise DomainError(path, "missing: --reuse-labels names a gnn_dataset folder")
+        try:
+            known.update({int(s): tuple(v) for s, v in json.loads(path.read_text())["labels"].items()})
+        except (json.JSONDecodeError, KeyError, ValueError):
+            raise DomainError(path, "corrupt label checkpoint") from None
+    return known
+
+
+def build(cfg: DatasetConfig, out, progress: bool = True, reuse=()) -> dict:
+    """Collect, label and save the dataset; returns the metadata written. `reuse`: folders whose labels to take."""
     from planning.compiler import compile_domain
 
     out = Path(out)
@@ -385,7 +425,7 @@ def build(cfg: DatasetConfig, out, progress: bool = True) -> dict:
         kinds += ["prepared"] * len(extra)
     t_states = time.perf_counter() - t0
     t1 = time.perf_counter()
-    labels = label_states(states, cfg, out / "labels.partial.json", progress=progress)
+    labels = label_states(states, cfg, out / "labels.partial.json", known_labels(reuse), progress=progress)
     t_label = time.perf_counter() - t1
     meta = {"config": asdict(cfg), "kinds": kinds, "seconds_states": round(t_states, 1),
             "seconds_labelling": round(t_label, 1),
@@ -401,6 +441,8 @@ def main() -> None:
     p.add_argument("--n-prepared", type=int, default=None, help="prepared states (default: 3 x n-states)")
     p.add_argument("--workers", type=int, default=2, help="labelling processes (default: %(default)s)")
     p.add_argument("--heuristic", default="lmcut", help="labelling search heuristic: blind, hmax, lmcut")
+    p.add_argument("--reuse-labels", action="append", default=[], metavar="DIR",
+                   help="take the labels another gnn_dataset folder already computed (repeatable)")
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args()
     if not args.out:
@@ -412,8 +454,10 @@ def main() -> None:
     cfg = DatasetConfig(layout=layout, domain=args.domain, n_states=args.n_states, augmented=args.augmented,
                         n_prepared=args.n_prepared, seed=args.seed, workers=args.workers,
                         heuristic=args.heuristic)
+    if cfg.heuristic not in ("blind", "hmax", "lmcut"):
+        raise DomainError("--heuristic", f"'{cfg.heuristic}' is not one of blind, hmax, lmcut")
     t0 = time.perf_counter()
-    meta = build(cfg, args.out, progress=not args.no_progress)
+    meta = build(cfg, args.out, progress=not args.no_progress, reuse=args.reuse_labels)
     n = len(meta["kinds"])
     print(f"{n} states ({meta['kinds'].count('faithful')} faithful, {meta['kinds'].count('prepared')} prepared) "
           f"in {time.perf_counter() - t0:.1f}s: states {meta['seconds_states']}s, labelling "

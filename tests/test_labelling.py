@@ -144,10 +144,11 @@ def test_command_writes_json(tmp_path):
 @pytest.mark.slow
 def test_costs_equal_fast_downward_full_sample(three_room):
     """Six myopic-rollout states x all 48 tasks: every cost equals Fast Downward's blind A*."""
-    from oracles.myopic import MyopicOracle, rollout
     from learning.gnn_dataset import record_states
+    from oracles.myopic import rollout
+    from test_gnn_dataset import oracle
 
-    records = list(rollout(three_room, MyopicOracle("internal"), seed=3, n_tasks=4))
+    records = list(rollout(three_room, oracle(three_room), seed=3, n_tasks=4))
     states = list(dict.fromkeys(record_states(records)))[:6]
     lab = Labeller(three_room, "lmcut")
     for s in states:
