@@ -14,6 +14,11 @@ zero. Admissible (not consistent: A* must reopen, see levels.CostLevels).
 """
 from __future__ import annotations
 
+import ctypes
+import hashlib
+import os
+import subprocess
+from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
@@ -89,10 +94,62 @@ class LMCut:
     def of_relaxed(self, batch: np.ndarray, task: "Relaxed") -> np.ndarray:
         """(N,) LM-cut of a compiled relaxed task whose state literals mirror each state's."""
         out = np.zeros(len(batch), dtype=np.int64)
+        lib = native()
         for lo in range(0, len(batch), CHUNK):
-            part = batch[lo: lo + CHUNK]
-            out[lo: lo + CHUNK] = lmcut_values(task.holds(self.bm.to_bits(part).astype(bool).T), task)
+            holds = task.holds(self.bm.to_bits(batch[lo: lo + CHUNK]).astype(bool).T)
+            if lib is None:
+                out[lo: lo + CHUNK] = lmcut_values(holds, task)
+                continue
+            rows = np.ascontiguousarray(holds.T, dtype=np.uint8)
+            part = np.zeros(len(rows), dtype=np.int64)
+            if lib.lmcut_batch(len(rows), task.n_cols, len(task.eff), len(task.op_cost), task.pre.shape[1],
+                               task.pre, task.pre_of_start,
+                               task.pre_of, task.n_pre, task.eff, task.owner, task.eff_start, task.op_cost,
+                               task.goal_col, rows, part) != 0:
+                raise MemoryError("LM-cut: out of memory")
+            out[lo: lo + CHUNK] = part
         return out
+
+
+_NATIVE = None
+
+
+def native():
+    """The compiled LM-cut (planning/_lmcut.c, built once per source version), or None.
+
+    None when LMCUT_NATIVE=0 or no C compiler works: the numpy version then
+    computes the same heuristic, several times slower.
+    """
+    global _NATIVE
+    if _NATIVE is None:
+        _NATIVE = _load_native() or False
+    return _NATIVE or None
+
+
+def _load_native():
+    if os.environ.get("LMCUT_NATIVE", "1") == "0":
+        return None
+    src = Path(__file__).with_name("_lmcut.c")
+    try:
+        code = src.read_bytes()
+        cache = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "anticipatory-planning"
+        lib = cache / f"lmcut-{hashlib.sha1(code).hexdigest()[:12]}.so"
+        if not lib.is_file():
+            cache.mkdir(parents=True, exist_ok=True)
+            tmp = cache / f"{lib.name}.{os.getpid()}.tmp"
+            subprocess.run([os.environ.get("CC", "cc"), "-O2", "-shared", "-fPIC", "-o", str(tmp), str(src)],
+                           check=True, capture_output=True, timeout=120)
+            os.replace(tmp, lib)          # atomic: processes building at once never load half a file
+        so = ctypes.CDLL(str(lib))
+    except (OSError, subprocess.SubprocessError):
+        return None
+    i64 = np.ctypeslib.ndpointer(np.int64, flags="C_CONTIGUOUS")
+    i32 = np.ctypeslib.ndpointer(np.int32, flags="C_CONTIGUOUS")
+    u8 = np.ctypeslib.ndpointer(np.uint8, flags="C_CONTIGUOUS")
+    n = ctypes.c_int64
+    so.lmcut_batch.restype = ctypes.c_int
+    so.lmcut_batch.argtypes = [n, n, n, n, n, i64, i64, i64, i32, i64, i64, i64, i32, n, u8, i64]
+    return so
 
 
 class Relaxed(NamedTuple):
@@ -110,6 +167,10 @@ class Relaxed(NamedTuple):
     state_lits: np.ndarray   # ... that literal (n + i: not atom i)
     n_cols: int
     keys: list               # the key of each column but TRUE
+    pre_of_start: np.ndarray  # CSR, column -> the achievers it is a precondition of (TRUE for none) ...
+    pre_of: np.ndarray        # ... with multiplicity
+    n_pre: np.ndarray         # (achievers,) int32 precondition count
+    eff_start: np.ndarray     # (columns + 1,) the achievers of column c are eff_start[c]:eff_start[c + 1]
 
     def holds(self, bits: np.ndarray) -> np.ndarray:
         """(columns, N) bool: the initial literals, from (atoms, N) state bits."""
@@ -155,10 +216,15 @@ def compile_relaxed(achievers: list, costs: dict, goal, initial: dict) -> Relaxe
         eff[r], owner[r] = c, op_col[o]
     targets, starts = np.unique(eff, return_index=True)
     state = [(col[k], lit) for k, lit in initial.items() if k in col]
+    entries = sorted((c, a) for a in range(len(rows)) for c in ([q for q in pre[a] if q != true_col] or [true_col]))
+    pre_of = np.array([a for _, a in entries], dtype=np.int64)
+    pre_of_start = np.searchsorted(np.array([c for c, _ in entries], dtype=np.int64), np.arange(true_col + 2))
+    n_pre = np.bincount(pre_of, minlength=len(rows)).astype(np.int32)
     return Relaxed(pre, eff, owner, np.array([costs[o] for o in ops], dtype=np.int32), targets, starts,
                    _width_groups(pre, true_col), col[goal],
                    np.array([c for c, _ in state], dtype=np.int64), np.array([l for _, l in state], dtype=np.int64),
-                   true_col + 1, keys)
+                   true_col + 1, keys, pre_of_start.astype(np.int64), pre_of, n_pre,
+                   np.searchsorted(eff, np.arange(true_col + 2)).astype(np.int64))
 
 
 def lmcut_values(holds: np.ndarray, task: Relaxed) -> np.ndarray:

@@ -8,6 +8,7 @@ import pytest
 
 from planning.batched import BatchedModel
 from planning.heuristics import INF_64, HMax, goal_literals
+import planning.lmcut as lmcut_module
 from planning.lmcut import LMCut
 from planning.model import Op
 from planning.search import optimal_plan, uniform_cost_search
@@ -22,6 +23,17 @@ class _Bits:
 
     def to_bits(self, batch):
         return ((batch[:, :1] >> np.arange(self.model.n_atoms, dtype=np.uint64)) & np.uint64(1)).astype(np.uint8)
+
+
+@pytest.fixture(params=["native", "numpy"], autouse=True)
+def implementation(request, monkeypatch):
+    """Every test runs on both the compiled LM-cut and the numpy one (skipped: no C compiler)."""
+    if request.param == "native":
+        if lmcut_module.native() is None:
+            pytest.skip("no C compiler: the numpy LM-cut only")
+    else:
+        monkeypatch.setattr(lmcut_module, "_NATIVE", False)
+    return request.param
 
 
 def tiny(n_atoms, actions):
@@ -109,6 +121,22 @@ def test_hmax_remains_selectable(two_room):
     a = optimal_plan(bm, two_room.init, task, heuristic="hmax")
     b = optimal_plan(bm, two_room.init, task)
     assert a.cost == b.cost == 650 and b.expansions < a.expansions
+
+
+def test_native_and_numpy_agree_exactly(two_room, monkeypatch):
+    # Same cuts, same ties (the first costliest precondition): the same values, dead ends included.
+    if lmcut_module.native() is None:
+        pytest.skip("no C compiler")
+    bm = BatchedModel(two_room)
+    lm = LMCut(two_room, bm)
+    batch = bm.pack(random_walk_states(two_room, 200, seed=9))
+    for name in ["serve-water(servingtable)", "make-coffee(servingtable)", "fruit-bowl(servingtable)"]:
+        goal = goal_literals(two_room, two_room.tasks.get(name))
+        fast = lm(batch, goal)
+        monkeypatch.setattr(lmcut_module, "_NATIVE", False)
+        slow = lm(batch, goal)
+        monkeypatch.setattr(lmcut_module, "_NATIVE", None)
+        assert (fast == slow).all()
 
 
 @pytest.mark.slow

@@ -1,0 +1,155 @@
+/* LM-cut (Helmert & Domshlak 2009) of a compiled relaxed task, one state after another.
+ *
+ * The same task and the same values as planning/lmcut.py's numpy version (ties in the
+ * precondition-choice function go to the first costliest precondition, as there), built on
+ * demand with the system C compiler and loaded through ctypes. Per round: h_max by a
+ * generalized Dijkstra (an achiever fires when its last precondition is settled), the
+ * precondition-choice function, the goal zone backwards through zero-cost achievers, the
+ * literals reached from the state without entering the zone, and the cut, whose cheapest
+ * operator cost is added to h and taken off every operator of the cut.
+ */
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define INF 0x1fffffff               /* planning.heuristics.INF */
+#define INF64 (INT64_MAX / 4)        /* planning.heuristics.INF_64 */
+
+typedef struct { int32_t v, c; } item;
+
+static void push(item *heap, int64_t *n, int32_t v, int32_t c) {
+    int64_t i = (*n)++;
+    while (i > 0) {
+        int64_t p = (i - 1) / 2;
+        if (heap[p].v <= v) break;
+        heap[i] = heap[p];
+        i = p;
+    }
+    heap[i].v = v;
+    heap[i].c = c;
+}
+
+static item pop(item *heap, int64_t *n) {
+    item top = heap[0], last = heap[--(*n)];
+    int64_t i = 0;
+    for (;;) {
+        int64_t l = 2 * i + 1, r = l + 1, m;
+        if (l >= *n) break;
+        m = (r < *n && heap[r].v < heap[l].v) ? r : l;
+        if (heap[m].v >= last.v) break;
+        heap[i] = heap[m];
+        i = m;
+    }
+    heap[i] = last;
+    return top;
+}
+
+/* Returns 0, or -1 if memory ran out. holds: N rows of C bytes; out: N values. */
+int lmcut_batch(int64_t N, int64_t C, int64_t A, int64_t O, int64_t W, const int64_t *pre,
+                const int64_t *pre_of_start, const int64_t *pre_of, const int32_t *n_pre,
+                const int64_t *eff, const int64_t *owner, const int64_t *eff_start,
+                const int32_t *op_cost0, int64_t goal_col, const uint8_t *holds, int64_t *out) {
+    int32_t *hm = malloc(C * sizeof(int32_t)), *unsat = malloc(A * sizeof(int32_t)),
+            *pcf = malloc(A * sizeof(int32_t)), *cost = malloc(O * sizeof(int32_t)),
+            *stack = malloc(C * sizeof(int32_t)), *cutops = malloc(O * sizeof(int32_t));
+    uint8_t *done = malloc(C), *zone = malloc(C), *reach = malloc(C), *cutmark = calloc(O, 1);
+    item *heap = malloc((C + A + 1) * sizeof(item));
+    int status = 0;
+    if (!hm || !unsat || !pcf || !cost || !stack || !cutops || !done || !zone || !reach || !cutmark || !heap) {
+        status = -1;
+        goto end;
+    }
+    for (int64_t s = 0; s < N; s++) {
+        const uint8_t *hs = holds + s * C;
+        int64_t h = 0;
+        memcpy(cost, op_cost0, O * sizeof(int32_t));
+        for (;;) {
+            int64_t hn = 0, sp = 0, ncut = 0;
+            int32_t m = INF;
+            for (int64_t c = 0; c < C; c++) {
+                done[c] = 0;
+                hm[c] = INF;
+                if (hs[c]) {
+                    hm[c] = 0;
+                    push(heap, &hn, 0, (int32_t)c);
+                }
+            }
+            for (int64_t a = 0; a < A; a++) {
+                unsat[a] = n_pre[a];
+                pcf[a] = -1;
+            }
+            while (hn) {                                     /* h_max */
+                item it = pop(heap, &hn);
+                int32_t c = it.c;
+                if (done[c]) continue;
+                done[c] = 1;
+                for (int64_t k = pre_of_start[c]; k < pre_of_start[c + 1]; k++) {
+                    int64_t a = pre_of[k];
+                    if (--unsat[a] == 0) {
+                        int32_t nv = it.v + cost[owner[a]];
+                        int64_t e = eff[a];
+                        if (nv < hm[e]) {
+                            hm[e] = nv;
+                            push(heap, &hn, nv, (int32_t)e);
+                        }
+                    }
+                }
+            }
+            if (hm[goal_col] >= INF) { h = INF64; break; }
+            if (hm[goal_col] == 0) break;
+            for (int64_t a = 0; a < A; a++) {                /* precondition-choice function */
+                const int64_t *p = pre + a * W;
+                int64_t best = p[0];
+                if (unsat[a] != 0) continue;
+                for (int64_t j = 1; j < W; j++)
+                    if (hm[p[j]] > hm[best]) best = p[j];
+                pcf[a] = (int32_t)best;
+            }
+            memset(zone, 0, C);                              /* the goal zone */
+            zone[goal_col] = 1;
+            stack[sp++] = (int32_t)goal_col;
+            while (sp) {
+                int32_t c = stack[--sp];
+                for (int64_t a = eff_start[c]; a < eff_start[c + 1]; a++) {
+                    int32_t p = pcf[a];
+                    if (p >= 0 && cost[owner[a]] == 0 && !zone[p]) {
+                        zone[p] = 1;
+                        stack[sp++] = p;
+                    }
+                }
+            }
+            memset(reach, 0, C);                             /* reached before the zone; the cut */
+            for (int64_t c = 0; c < C; c++)
+                if (hs[c]) { reach[c] = 1; stack[sp++] = (int32_t)c; }
+            while (sp) {
+                int32_t c = stack[--sp];
+                for (int64_t k = pre_of_start[c]; k < pre_of_start[c + 1]; k++) {
+                    int64_t a = pre_of[k], e = eff[a];
+                    if (pcf[a] != c) continue;
+                    if (zone[e]) {
+                        int64_t o = owner[a];
+                        if (!cutmark[o]) {
+                            cutmark[o] = 1;
+                            cutops[ncut++] = (int32_t)o;
+                            if (cost[o] < m) m = cost[o];
+                        }
+                    } else if (!reach[e]) {
+                        reach[e] = 1;
+                        stack[sp++] = (int32_t)e;
+                    }
+                }
+            }
+            for (int64_t i = 0; i < ncut; i++) {
+                cost[cutops[i]] -= m;
+                cutmark[cutops[i]] = 0;
+            }
+            if (ncut == 0 || m <= 0) break;                  /* cannot happen; h so far is a bound */
+            h += m;
+        }
+        out[s] = h;
+    }
+end:
+    free(hm); free(unsat); free(pcf); free(cost); free(stack); free(cutops);
+    free(done); free(zone); free(reach); free(cutmark); free(heap);
+    return status;
+}
