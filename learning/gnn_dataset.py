@@ -272,7 +272,6 @@ def _init_worker(domain: str, layout: str, heuristic: str, time_limit) -> None:
     from oracles.labelling import Labeller
     from planning.compiler import compile_domain
 
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
     _WORKER["labeller"] = Labeller(compile_domain(domain, layout), heuristic, time_limit)
 
 

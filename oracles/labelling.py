@@ -302,9 +302,8 @@ class Label:
 class Labeller:
     """C_AP(s) = sum_tau P(tau) C*_tau(s) over every task instantiation of a layout, by one multi-goal search.
 
-    heuristic: "blind" (Dijkstra), "hmax" (min over unsettled tasks of h_max on every
-    generated state), or "lmcut" (that, plus LM-cut of the unsettled goals' disjunction
-    on every state about to be closed; needs planning.lmcut).
+    heuristic: "blind" (Dijkstra), "hmax" (min over the unsettled tasks of h_max), or
+    "lmcut" (LM-cut of the unsettled tasks' goals joined by "or"; planning.lmcut).
     """
 
     def __init__(self, model, heuristic: str = "lmcut", time_limit: float | None = None):
@@ -313,18 +312,18 @@ class Labeller:
         self.model, self.time_limit = model, time_limit
         self.bm = BatchedModel(model)
         self.goals = TaskGoals(self.bm, model.tasks)
-        on_pop = None
         if heuristic == "blind":
             h = Blind()
         else:
             h = MinHMax(self.goals)
             lmcut = _lmcut_class() if heuristic == "lmcut" else None
             if heuristic == "lmcut" and lmcut is None:
-                heuristic = "hmax"        # the LM-cut module has not landed: h_max alone is exact too
+                heuristic = "hmax"        # the LM-cut module is not there: h_max alone is exact too
             elif lmcut is not None:
-                on_pop = UnionGoal(self.goals, lmcut(model, self.bm, h.hmax), "lmcut")
+                # LM-cut of the disjunction dominates the min of the h_max's: it replaces them
+                h = UnionGoal(self.goals, lmcut(self.model, self.bm, h.hmax), "lmcut")
         self.heuristic = heuristic
-        self.search = MultiGoalSearch(self.bm, self.goals, h, on_pop)
+        self.search = MultiGoalSearch(self.bm, self.goals, h)
 
     def label(self, state: int) -> Label:
         """C_AP of a state exactly as given (apply the finished task's consumption first)."""
