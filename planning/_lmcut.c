@@ -17,25 +17,36 @@
 
 typedef struct { int32_t v, c; } item;
 
-static void push(item *heap, int64_t *n, int32_t v, int32_t c) {
-    int64_t i = (*n)++;
+typedef struct { item *items; int64_t n, cap; } heap_t;
+
+static int push(heap_t *hp, int32_t v, int32_t c) {
+    int64_t i;
+    if (hp->n == hp->cap) {                      /* values may drop more than once: grow */
+        item *more = realloc(hp->items, 2 * hp->cap * sizeof(item));
+        if (!more) return -1;
+        hp->items = more;
+        hp->cap *= 2;
+    }
+    i = hp->n++;
     while (i > 0) {
         int64_t p = (i - 1) / 2;
-        if (heap[p].v <= v) break;
-        heap[i] = heap[p];
+        if (hp->items[p].v <= v) break;
+        hp->items[i] = hp->items[p];
         i = p;
     }
-    heap[i].v = v;
-    heap[i].c = c;
+    hp->items[i].v = v;
+    hp->items[i].c = c;
+    return 0;
 }
 
-static item pop(item *heap, int64_t *n) {
-    item top = heap[0], last = heap[--(*n)];
-    int64_t i = 0;
+static item pop(heap_t *hp) {
+    item *heap = hp->items;
+    item top = heap[0], last = heap[--hp->n];
+    int64_t i = 0, n = hp->n;
     for (;;) {
         int64_t l = 2 * i + 1, r = l + 1, m;
-        if (l >= *n) break;
-        m = (r < *n && heap[r].v < heap[l].v) ? r : l;
+        if (l >= n) break;
+        m = (r < n && heap[r].v < heap[l].v) ? r : l;
         if (heap[m].v >= last.v) break;
         heap[i] = heap[m];
         i = m;
@@ -48,14 +59,15 @@ static item pop(item *heap, int64_t *n) {
 int lmcut_batch(int64_t N, int64_t C, int64_t A, int64_t O, int64_t W, const int64_t *pre,
                 const int64_t *pre_of_start, const int64_t *pre_of, const int32_t *n_pre,
                 const int64_t *eff, const int64_t *owner, const int64_t *eff_start,
-                const int32_t *op_cost0, int64_t goal_col, const uint8_t *holds, int64_t *out) {
+                const int32_t *op_cost0, const int64_t *op_start, const int64_t *op_ach,
+                int64_t goal_col, const uint8_t *holds, int64_t *out) {
     int32_t *hm = malloc(C * sizeof(int32_t)), *unsat = malloc(A * sizeof(int32_t)),
             *pcf = malloc(A * sizeof(int32_t)), *cost = malloc(O * sizeof(int32_t)),
             *stack = malloc(C * sizeof(int32_t)), *cutops = malloc(O * sizeof(int32_t));
     uint8_t *done = malloc(C), *zone = malloc(C), *reach = malloc(C), *cutmark = calloc(O, 1);
-    item *heap = malloc((C + A + 1) * sizeof(item));
+    heap_t hp = {malloc((C + A + 1) * sizeof(item)), 0, C + A + 1};
     int status = 0;
-    if (!hm || !unsat || !pcf || !cost || !stack || !cutops || !done || !zone || !reach || !cutmark || !heap) {
+    if (!hm || !unsat || !pcf || !cost || !stack || !cutops || !done || !zone || !reach || !cutmark || !hp.items) {
         status = -1;
         goto end;
     }
@@ -63,45 +75,46 @@ int lmcut_batch(int64_t N, int64_t C, int64_t A, int64_t O, int64_t W, const int
         const uint8_t *hs = holds + s * C;
         int64_t h = 0;
         memcpy(cost, op_cost0, O * sizeof(int32_t));
-        for (;;) {
-            int64_t hn = 0, sp = 0, ncut = 0;
-            int32_t m = INF;
-            for (int64_t c = 0; c < C; c++) {
-                done[c] = 0;
-                hm[c] = INF;
-                if (hs[c]) {
-                    hm[c] = 0;
-                    push(heap, &hn, 0, (int32_t)c);
-                }
+        hp.n = 0;
+        for (int64_t c = 0; c < C; c++) {
+            done[c] = 0;
+            hm[c] = INF;
+            if (hs[c]) {
+                hm[c] = 0;
+                if (push(&hp, 0, (int32_t)c)) { status = -1; goto end; }
             }
-            for (int64_t a = 0; a < A; a++) {
-                unsat[a] = n_pre[a];
-                pcf[a] = -1;
-            }
-            while (hn) {                                     /* h_max */
-                item it = pop(heap, &hn);
-                int32_t c = it.c;
-                if (done[c]) continue;
-                done[c] = 1;
-                for (int64_t k = pre_of_start[c]; k < pre_of_start[c + 1]; k++) {
-                    int64_t a = pre_of[k];
-                    if (--unsat[a] == 0) {
-                        int32_t nv = it.v + cost[owner[a]];
-                        int64_t e = eff[a];
-                        if (nv < hm[e]) {
-                            hm[e] = nv;
-                            push(heap, &hn, nv, (int32_t)e);
-                        }
+        }
+        for (int64_t a = 0; a < A; a++) {
+            unsat[a] = n_pre[a];
+            pcf[a] = -1;
+        }
+        while (hp.n) {                                         /* h_max, first round */
+            item it = pop(&hp);
+            int32_t c = it.c;
+            if (done[c]) continue;
+            done[c] = 1;
+            for (int64_t k = pre_of_start[c]; k < pre_of_start[c + 1]; k++) {
+                int64_t a = pre_of[k];
+                if (--unsat[a] == 0) {
+                    int32_t nv = it.v + cost[owner[a]];
+                    int64_t e = eff[a];
+                    if (nv < hm[e]) {
+                        hm[e] = nv;
+                        if (push(&hp, nv, (int32_t)e)) { status = -1; goto end; }
                     }
                 }
             }
+        }
+        for (;;) {
+            int64_t sp = 0, ncut = 0;
+            int32_t m = INF;
             if (hm[goal_col] >= INF) { h = INF64; break; }
             if (hm[goal_col] == 0) break;
             for (int64_t a = 0; a < A; a++) {                /* precondition-choice function */
                 const int64_t *p = pre + a * W;
                 int64_t best = p[0];
                 if (unsat[a] != 0) continue;
-                for (int64_t j = 1; j < W; j++)
+                for (int64_t j = 1; j < W && p[j] != C - 1; j++)   /* C - 1 (TRUE) pads the row */
                     if (hm[p[j]] > hm[best]) best = p[j];
                 pcf[a] = (int32_t)best;
             }
@@ -145,11 +158,47 @@ int lmcut_batch(int64_t N, int64_t C, int64_t A, int64_t O, int64_t W, const int
             }
             if (ncut == 0 || m <= 0) break;                  /* cannot happen; h so far is a bound */
             h += m;
+            /* h_max again, incrementally: costs only dropped, so only values below can change.
+               Seed with the cut's achievers, then follow the achievers whose costliest
+               precondition dropped; the others keep their maximum. */
+            hp.n = 0;
+            for (int64_t i = 0; i < ncut; i++) {
+                int64_t o = cutops[i];
+                for (int64_t k = op_start[o]; k < op_start[o + 1]; k++) {
+                    int64_t a = op_ach[k], e = eff[a];
+                    if (pcf[a] < 0) continue;
+                    int32_t nv = hm[pcf[a]] + cost[o];
+                    if (nv < hm[e]) {
+                        hm[e] = nv;
+                        if (push(&hp, nv, (int32_t)e)) { status = -1; goto end; }
+                    }
+                }
+            }
+            while (hp.n) {
+                item it = pop(&hp);
+                int32_t c = it.c;
+                if (it.v > hm[c]) continue;                  /* stale */
+                for (int64_t k = pre_of_start[c]; k < pre_of_start[c + 1]; k++) {
+                    int64_t a = pre_of[k], e = eff[a];
+                    const int64_t *p = pre + a * W;
+                    int64_t best = p[0];
+                    int32_t nv;
+                    if (pcf[a] != c) continue;
+                    for (int64_t j = 1; j < W && p[j] != C - 1; j++)
+                        if (hm[p[j]] > hm[best]) best = p[j];
+                    pcf[a] = (int32_t)best;
+                    nv = hm[best] + cost[owner[a]];
+                    if (nv < hm[e]) {
+                        hm[e] = nv;
+                        if (push(&hp, nv, (int32_t)e)) { status = -1; goto end; }
+                    }
+                }
+            }
         }
         out[s] = h;
     }
 end:
     free(hm); free(unsat); free(pcf); free(cost); free(stack); free(cutops);
-    free(done); free(zone); free(reach); free(cutmark); free(heap);
+    free(done); free(zone); free(reach); free(cutmark); free(hp.items);
     return status;
 }

@@ -105,7 +105,7 @@ class LMCut:
             if lib.lmcut_batch(len(rows), task.n_cols, len(task.eff), len(task.op_cost), task.pre.shape[1],
                                task.pre, task.pre_of_start,
                                task.pre_of, task.n_pre, task.eff, task.owner, task.eff_start, task.op_cost,
-                               task.goal_col, rows, part) != 0:
+                               task.op_start, task.op_ach, task.goal_col, rows, part) != 0:
                 raise MemoryError("LM-cut: out of memory")
             out[lo: lo + CHUNK] = part
         return out
@@ -148,7 +148,7 @@ def _load_native():
     u8 = np.ctypeslib.ndpointer(np.uint8, flags="C_CONTIGUOUS")
     n = ctypes.c_int64
     so.lmcut_batch.restype = ctypes.c_int
-    so.lmcut_batch.argtypes = [n, n, n, n, n, i64, i64, i64, i32, i64, i64, i64, i32, n, u8, i64]
+    so.lmcut_batch.argtypes = [n, n, n, n, n, i64, i64, i64, i32, i64, i64, i64, i32, i64, i64, n, u8, i64]
     return so
 
 
@@ -171,6 +171,8 @@ class Relaxed(NamedTuple):
     pre_of: np.ndarray        # ... with multiplicity
     n_pre: np.ndarray         # (achievers,) int32 precondition count
     eff_start: np.ndarray     # (columns + 1,) the achievers of column c are eff_start[c]:eff_start[c + 1]
+    op_start: np.ndarray      # CSR, operator -> ...
+    op_ach: np.ndarray        # ... its achievers
 
     def holds(self, bits: np.ndarray) -> np.ndarray:
         """(columns, N) bool: the initial literals, from (atoms, N) state bits."""
@@ -224,7 +226,9 @@ def compile_relaxed(achievers: list, costs: dict, goal, initial: dict) -> Relaxe
                    _width_groups(pre, true_col), col[goal],
                    np.array([c for c, _ in state], dtype=np.int64), np.array([l for _, l in state], dtype=np.int64),
                    true_col + 1, keys, pre_of_start.astype(np.int64), pre_of, n_pre,
-                   np.searchsorted(eff, np.arange(true_col + 2)).astype(np.int64))
+                   np.searchsorted(eff, np.arange(true_col + 2)).astype(np.int64),
+                   np.searchsorted(owner[np.argsort(owner, kind="stable")], np.arange(len(ops) + 1)).astype(np.int64),
+                   np.argsort(owner, kind="stable").astype(np.int64))
 
 
 def lmcut_values(holds: np.ndarray, task: Relaxed) -> np.ndarray:

@@ -132,3 +132,21 @@ def test_layered_relaxation_sees_the_second_water(two_room, joint):
     assert int(joint.lmcut.of_relaxed(start, joint.relaxation([water, water], 0))[0]) == 1500
     coffee = two_room.tasks.get("make-coffee(servingtable)")
     assert int(joint.lmcut.of_relaxed(start, joint.relaxation([water, coffee], 0))[0]) == 1600
+
+
+def test_layered_values_agree_between_native_and_numpy(two_room, joint, monkeypatch):
+    import planning.lmcut as lmcut_module
+    from tests.conftest import random_walk_states
+
+    if lmcut_module.native() is None:
+        pytest.skip("no C compiler")
+    water, coffee = two_room.tasks.get("serve-water(servingtable)"), two_room.tasks.get("make-coffee(servingtable)")
+    states = random_walk_states(two_room, 150, seed=4)
+    for window, stage in [([water, water], 0), ([water, coffee, water], 1)]:
+        batch = joint.bm.pack([s | (1 << (joint.n + stage)) for s in states])
+        relaxed = joint.relaxation(window, stage)
+        fast = joint.lmcut.of_relaxed(batch, relaxed)
+        monkeypatch.setattr(lmcut_module, "_NATIVE", False)
+        slow = joint.lmcut.of_relaxed(batch, relaxed)
+        monkeypatch.setattr(lmcut_module, "_NATIVE", None)
+        assert (fast == slow).all() and fast.min() > 0
