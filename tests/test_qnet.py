@@ -182,3 +182,18 @@ def test_brute_force_argmax_over_all_label_tuples(minimal):
                 q = net(torch.from_numpy(enc.observe(enc.pack([s]), [task])), torch.from_numpy(valid[None]))[0]
             best = max(product, key=lambda t: ref[valid_tuples[t]])
             assert int(q.argmax()) == valid_tuples[best]
+
+
+def test_numpy_inference_matches_the_network(two_room, enc, net):
+    from learning.qnet import NumpyQ, preparedness
+
+    states = random_walk_states(two_room, 24, seed=13)
+    packed = enc.pack(states)
+    tasks = np.arange(24) % len(two_room.tasks)
+    obs, valid = enc.observe(packed, tasks), enc.valid_for(packed, tasks)
+    with torch.no_grad():
+        expect = net(torch.from_numpy(obs), torch.from_numpy(valid)).numpy()
+    got = NumpyQ(net)(obs, valid)
+    assert np.allclose(got[valid], expect[valid], atol=1e-4) and np.isneginf(got[~valid]).all()
+    from learning.qnet import ValueFunction
+    assert np.allclose(ValueFunction(net, enc).v_ap(states), preparedness(net, net, enc, packed), atol=1e-4)
