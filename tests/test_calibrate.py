@@ -74,3 +74,15 @@ def test_command_on_a_short_rollout(tmp_path):
     assert res["r_goal"] == pytest.approx(1.2 * res["d_max"], abs=1e-3)
     bad = subprocess.run(cmd[:-2] + ["--gamma", "1.5"], capture_output=True, text=True)
     assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "--gamma" in bad.stderr
+
+
+def test_committed_calibrations_are_consistent(restaurant):
+    """results/calibration-<layout>.json: 2,000 tasks, R_goal = 1.2 D_max, D_max recomputed from its plan."""
+    res = json.loads(calibration_path(restaurant).read_text())
+    assert (res["layout"], res["tasks"], res["gamma"], res["margin"]) == (restaurant.layout, 2000, 0.95, 0.2)
+    a = res["argmax"]
+    assert a["costs"] == [restaurant.action_cost[restaurant.action(n)] for n in a["plan"]]
+    assert discounted_requirement(a["costs"], 0.95, 100) == pytest.approx(res["d_max"], abs=1e-3)
+    assert res["r_goal"] == pytest.approx(1.2 * res["d_max"], abs=1e-3)
+    assert goal_reward(restaurant) == res["r_goal"]
+    assert max(res["d_max_by_type"].values()) == res["d_max"]
