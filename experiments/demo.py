@@ -1,7 +1,7 @@
 """Demonstration: a seeded task stream in the persistent restaurant, each task solved optimally alone.
 
 This is the myopic agent of the thesis with our exact in-process planner (A*
-with h_max on the compiled model): every plan is optimal for its own task and
+with LM-cut on the compiled model): every plan is optimal for its own task and
 blind to the next, and the world it leaves behind is where the next task starts.
 
     python -m experiments.demo --layout two-room --tasks 50

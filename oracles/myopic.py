@@ -1,7 +1,7 @@
 """The myopic oracle (thesis §5.2.2 item 1): each task solved alone, cost-optimally, blind to the next.
 
 The thesis's oracle is Fast Downward's A* with the blind heuristic; `--planner
-internal` uses our exact in-process A* (h_max on the compiled model) instead.
+internal` uses our exact in-process A* (LM-cut on the compiled model) instead.
 Both return optimal plans, so a task's cost is the same from the same state;
 where several plans are optimal the two may leave different worlds behind, and
 the sequences then drift apart (the closing table reports both).
@@ -33,7 +33,7 @@ class MyopicOracle(Planner):
             raise ValueError(f"unknown planner {planner}")
         self.planner, self.time_limit = planner, time_limit
         self.config = {"planner": planner, "time_limit": time_limit,
-                       "search": fd.OPTIMAL_CONFIG if planner == "fast-downward" else "astar(hmax) by f-levels"}
+                       "search": fd.OPTIMAL_CONFIG if planner == "fast-downward" else "astar(lmcut) by f-levels"}
         self._model = None
 
     def start(self, model, sequence) -> None:
