@@ -8,9 +8,15 @@ h_max under the state's current achiever costs, the precondition-choice
 function (the costliest precondition of each achiever), the goal zone (literals
 that reach the goal literal through zero-cost achievers, backwards), the
 literals reachable from the state without entering the zone, and the cut (the
-achievers that enter the zone from there). The cut's cheapest cost is added to
-h and subtracted from the cut's achievers. Rounds stop when the goal's h_max is
-zero. Admissible (not consistent: A* must reopen, see levels.CostLevels).
+achievers that enter the zone from there). The cut's cheapest operator cost is
+added to h and subtracted from the cut's operators (costs belong to operators:
+an action reaching two literals is paid once). Rounds stop when the goal's
+h_max is zero. Admissible, not consistent: A* must reopen, see levels.CostLevels.
+
+`compile_relaxed` turns any delete-relaxed task into arrays, so the same code
+serves the joint search's stage-layered relaxation. planning/_lmcut.c computes
+the same values one state at a time, 5-10x faster; it is built on first use
+with the system C compiler, and the numpy version runs where there is none.
 """
 from __future__ import annotations
 
@@ -26,7 +32,6 @@ import numpy as np
 from .errors import DomainError
 from .heuristics import INF, INF_64, HMax
 
-REACH = True        # the standard cut; False takes every finite literal outside the zone
 CHUNK = 512         # states per numpy pass: keeps the (achievers, states) arrays in cache
 
 
@@ -318,8 +323,6 @@ def _cut(hm, cost, holds, pre, wide, eff, goal_col) -> np.ndarray:
             break
         z[flat_pcf[grow]] = True
     into = zone[eff]
-    if not REACH:                            # every finite literal outside the zone: a superset, still a landmark
-        return into & (best < INF) & ~z[flat_pcf]
     reach = holds.copy()
     r = reach.reshape(-1)
     flat_eff = eff[:, None] * n + np.arange(n)
