@@ -403,9 +403,12 @@ class Trainer:
         """Continue from a last.pt written by `save` (same layout, horizon and seed)."""
         p = read_checkpoint(path)
         old = p.get("config", {})
-        for key in ("domain", "layout", "horizon", "seed", "hidden"):
+        # The reward and discount define the learning problem: a run continues only under its own
+        # (a calibration written after the run started must not change R_goal halfway).
+        for key in ("domain", "layout", "horizon", "seed", "hidden", "goal_reward", "gamma"):
             if old.get(key) != getattr(self.cfg, key):
-                raise DomainError(path, f"was trained with {key}={old.get(key)!r}, not {getattr(self.cfg, key)!r}")
+                hint = f" (pass --goal-reward {old.get(key)} to continue it)" if key == "goal_reward" else ""
+                raise DomainError(path, f"was trained with {key}={old.get(key)!r}, not {getattr(self.cfg, key)!r}{hint}")
         if p["signature"] != self.enc.signature():
             raise DomainError(path, "was trained on a different compilation of this layout")
         self.net.load_state_dict(p["net"])

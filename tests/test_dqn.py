@@ -52,6 +52,8 @@ def test_short_training_learns_the_first_task_and_resumes(minimal, tmp_path):
     assert again.world.state == trainer.world.state
     again.train()
     assert again.step == 1250
+    with pytest.raises(DomainError, match="goal_reward=10.0, not 12.0"):
+        Trainer(small_config(minimal, tmp_path, goal_reward=12.0), progress=False).resume(tmp_path / "last.pt")
     with pytest.raises(DomainError, match="horizon"):
         Trainer(small_config(minimal, tmp_path, horizon="anticipatory"), progress=False).resume(tmp_path / "last.pt")
 
