@@ -35,6 +35,7 @@ import torch
 import torch.nn.functional as F
 from tqdm import tqdm
 
+from experiments.calibrate import goal_reward
 from planning import cli
 from planning.compiler import compile_domain
 from planning.errors import DomainError
@@ -114,8 +115,6 @@ def domain_defaults(model, horizon: str) -> dict:
     if "gamma" in model.config.get("reward", {}):
         out["gamma"] = model.config["reward"]["gamma"]
     for key, value in table.items():
-        if key == "goal_reward_thesis":
-            continue
         if key not in names:
             raise DomainError(model.files["config"], f"[training] '{key}' is not a training setting")
         for selector in (model.layout, horizon):
@@ -125,19 +124,6 @@ def domain_defaults(model, horizon: str) -> dict:
                 value = value[selector]
         out[key] = value
     return out
-
-
-def default_goal_reward(model) -> float:
-    """R_goal from experiments.calibrate; FALLBACK until a calibration exists: domain.toml [training] goal_reward_thesis."""
-    try:
-        from experiments.calibrate import goal_reward
-        return goal_reward(model)
-    except (ImportError, DomainError) as e:
-        thesis = model.config.get("training", {}).get("goal_reward_thesis", {})
-        if model.layout in thesis:
-            print(f"note: {e}; using the thesis's R_goal = {thesis[model.layout]}", file=sys.stderr)
-            return float(thesis[model.layout])
-        raise
 
 
 def epsilon(cfg: Config, step: int) -> float:
@@ -215,7 +201,7 @@ class Trainer:
         self.out = Path(cfg.out or f"runs/dqn/{model.name}-{model.layout}-{cfg.horizon}-seed{cfg.seed}")
         cfg.out = str(self.out)
         self.scale = float(model.config.get("reward", {}).get("cost_scale", 1))
-        self.r_goal = float(cfg.goal_reward if cfg.goal_reward is not None else default_goal_reward(model))
+        self.r_goal = float(cfg.goal_reward if cfg.goal_reward is not None else goal_reward(model))
         cfg.goal_reward = self.r_goal
         stream_cfg = model.config.get("stream", {})
         self.terminal_reset = bool(stream_cfg.get("terminal_reset", False))
