@@ -15,14 +15,13 @@ The batched plug-in calls for searches (SPEC "Values as plug-in heuristics") are
 from __future__ import annotations
 
 import io
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import torch
 from torch import nn
 
+from planning.atomic import write_bytes
 from planning.errors import DomainError
 
 from .encoding import Encoding
@@ -281,21 +280,9 @@ def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict,
 # ---- checkpoints ---------------------------------------------------------
 def save_checkpoint(path, payload: dict) -> Path:
     """Write a torch checkpoint atomically: a temporary file beside it, then os.replace."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     buf = io.BytesIO()
     torch.save(payload, buf)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(buf.getvalue())
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    return write_bytes(path, buf.getvalue())
 
 
 def read_checkpoint(path) -> dict:

@@ -9,12 +9,17 @@ from pathlib import Path
 
 def write_text(path, text: str) -> Path:
     """Write text to a temporary file beside `path`, then rename it into place."""
+    return write_bytes(path, text.encode())
+
+
+def write_bytes(path, data: bytes) -> Path:
+    """Write bytes to a temporary file beside `path`, then rename it into place."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)
