@@ -69,23 +69,26 @@ class GreedyValuePolicy(Policy):
     name = "rl-greedy"
 
     def __init__(self, checkpoint):
+        from learning.qnet import read_checkpoint
         from planning.errors import DomainError
 
         if not checkpoint:
             raise DomainError("--checkpoint", "the rl-greedy agent needs --checkpoint PATH")
         self.checkpoint = str(checkpoint)
-        self.config = {"checkpoint": self.checkpoint}
+        # Read now: a bad checkpoint fails before any output, and the config is
+        # complete before the runner compares it with a partial run's to resume.
+        payload = read_checkpoint(self.checkpoint)
+        cfg = payload.get("config", {})
+        self.config = {"checkpoint": self.checkpoint,
+                       **{k: payload[k] for k in ("step", "eval") if k in payload},
+                       **{k: cfg[k] for k in ("horizon", "seed", "gamma", "goal_reward") if k in cfg}}
         self._model = None
 
     def start(self, model, sequence) -> None:
         if model is not self._model:
-            from learning.qnet import load_value_function, read_checkpoint
+            from learning.qnet import load_value_function
 
             self._model, self.value = model, load_value_function(self.checkpoint, model)
-            payload = read_checkpoint(self.checkpoint)
-            self.config.update({k: payload[k] for k in ("step", "eval") if k in payload})
-            cfg = payload.get("config", {})
-            self.config.update({k: cfg[k] for k in ("horizon", "seed", "gamma", "goal_reward") if k in cfg})
 
     def act(self, state: int, task) -> int:
         return int(self.value.greedy([state], task.index)[0])

@@ -94,7 +94,9 @@ def test_rl_greedy_agent_loads_a_checkpoint_and_acts(two_room, tmp_path):
     enc = Encoding(two_room)
     path = save_checkpoint(tmp_path / "q.pt", network_payload(build_network(enc, 32), enc, {"step": 7}))
     agent = make_agent("rl-greedy", Namespace(checkpoint=str(path)))
+    before = dict(agent.config)       # what the runner compares with a partial run's to resume
     agent.start(two_room, None)
+    assert agent.config == before
     s = two_room.reset_state(0)
     task = next(t for t in two_room.tasks if not t.satisfied(s))
     assert agent.act(s, task) in two_room.applicable(s)
