@@ -38,7 +38,7 @@ from planning.batched import BatchedModel
 from planning.errors import DomainError
 from planning.heuristics import INF_64 as INF
 from planning.heuristics import HMax, goal_literals
-from planning.levels import StateKeyCollision, state_keys
+from planning.levels import ClosedStates, cheapest_unique
 
 CHUNK = 1 << 16          # rows per goal test: keeps the (rows, conjunctions) arrays small
 
@@ -160,35 +160,14 @@ class MultiGoalSearch:
         settled_at = [0] * T
         version = 0                                 # bumped whenever a task is settled
         start = bm.pack([state])
-        keys_closed = np.zeros(0, dtype=np.uint64)
-        rows_closed = np.zeros((0, bm.n_words), dtype=np.uint64)
-        g_closed = np.zeros(0, dtype=np.int64)
+        closed_states = ClosedStates(bm.n_words)
         closed = reopened = 0
-
-        def closed_lookup(keys, rows):
-            """(position, hit) of sorted unique keys in the closed arrays (collisions raise)."""
-            if not len(keys_closed):
-                return np.zeros(len(keys), dtype=np.int64), np.zeros(len(keys), dtype=bool)
-            pos = np.searchsorted(keys_closed, keys)
-            inside = pos < len(keys_closed)
-            hit = np.zeros(len(keys), dtype=bool)
-            hit[inside] = keys_closed[pos[inside]] == keys[inside]
-            if (rows_closed[pos[hit]] != rows[hit]).any():
-                raise StateKeyCollision("two states share a 64-bit key")
-            return pos, hit
 
         def dedupe(rows, g):
             """(indices, sorted keys): one row per state (its smallest g), none closed at a g as small."""
-            keys = state_keys(rows)
-            order = np.lexsort((g, keys))
-            keys = keys[order]
-            first = np.ones(len(keys), dtype=bool)
-            first[1:] = keys[1:] != keys[:-1]
-            order, keys = order[first], keys[first]
-            pos, hit = closed_lookup(keys, rows[order])
-            keep = ~hit
-            keep[hit] = g[order[hit]] < g_closed[pos[hit]]
-            return order[keep], keys[keep]
+            pick, keys = cheapest_unique(rows, g)
+            keep = ~closed_states.closed_mask(keys, rows[pick], g[pick])
+            return pick[keep], keys[keep]
 
         open_: dict[int, list] = {}
         heap: list[int] = []
@@ -233,14 +212,7 @@ class MultiGoalSearch:
             if not len(rows):
                 continue
             # Close: new states are inserted, reopened ones get their smaller g.
-            pos, hit = closed_lookup(keys, rows)
-            if hit.any():
-                reopened += int(hit.sum())
-                g_closed[pos[hit]] = g[hit]
-            new = ~hit
-            keys_closed = np.insert(keys_closed, pos[new], keys[new])
-            rows_closed = np.insert(rows_closed, pos[new], rows[new], axis=0)
-            g_closed = np.insert(g_closed, pos[new], g[new])
+            reopened += closed_states.close(keys, rows, g)
             closed += len(rows)
             # Settle the tasks whose goal this level reaches, at the smallest g among its goal states.
             open_tasks = np.flatnonzero(unsettled)

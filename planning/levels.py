@@ -35,6 +35,57 @@ class StateKeyCollision(RuntimeError):
     """Two distinct states share a 64-bit key (about 1 in 10^7 for 10^6 states); never ignored."""
 
 
+def cheapest_unique(rows: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(indices, sorted keys): one row per distinct state, the one of smallest g (key collisions raise)."""
+    keys = state_keys(rows)
+    order = np.lexsort((g, keys))
+    keys = keys[order]
+    first = np.ones(len(keys), dtype=bool)
+    first[1:] = keys[1:] != keys[:-1]
+    pick = order[first]
+    if len(pick) < len(rows):
+        back = np.cumsum(first) - 1              # each sorted row's kept representative
+        if (rows[pick][back] != rows[order]).any():
+            raise StateKeyCollision("two states of one batch share a key")
+    return pick, keys[first]
+
+
+class ClosedStates:
+    """The states a search has closed, with the g of their last closing; keys sorted, rows checked."""
+
+    def __init__(self, n_words: int):
+        self.keys = np.zeros(0, dtype=np.uint64)
+        self.rows = np.zeros((0, n_words), dtype=np.uint64)
+        self.g = np.zeros(0, dtype=np.int64)
+
+    def __len__(self) -> int:
+        return len(self.keys)
+
+    def closed_mask(self, keys, rows, g) -> np.ndarray:
+        """(N,) bool: which states (sorted unique keys) are closed already at a g no larger."""
+        if not len(self.keys):
+            return np.zeros(len(keys), dtype=bool)
+        pos = np.minimum(np.searchsorted(self.keys, keys), len(self.keys) - 1)
+        hit = self.keys[pos] == keys
+        if (self.rows[pos[hit]] != rows[hit]).any():
+            raise StateKeyCollision("a new state shares its key with a closed one")
+        return hit & (self.g[pos] <= g)
+
+    def close(self, keys, rows, g) -> int:
+        """Close states (sorted unique keys, none closed at a g as small); how many were reopened."""
+        pos = np.searchsorted(self.keys, keys)     # keys are sorted: the merge stays sorted
+        known = np.zeros(len(keys), dtype=bool)
+        if len(self.keys):
+            inside = pos < len(self.keys)
+            known[inside] = self.keys[pos[inside]] == keys[inside]
+        self.g[pos[known]] = g[known]              # reopened: a smaller g than before
+        new = ~known
+        self.keys = np.insert(self.keys, pos[new], keys[new])
+        self.rows = np.insert(self.rows, pos[new], rows[new], axis=0)
+        self.g = np.insert(self.g, pos[new], g[new])
+        return int(known.sum())
+
+
 class CostLevels:
     """Iterate over (f, states, ids, g): states closed at f = g + h, level by level.
 
@@ -57,9 +108,7 @@ class CostLevels:
         self.closed = 0
         self.reopened = 0               # closings of a state already closed at a larger g
         self.exhausted = False          # True when every reachable state was closed
-        self._keys = np.zeros(0, dtype=np.uint64)
-        self._rows = np.zeros((0, bm.n_words), dtype=np.uint64)
-        self._g = np.zeros(0, dtype=np.int64)       # the g each stored state was last closed at
+        self._closed = ClosedStates(bm.n_words)
         # h of every state evaluated so far: an open state is generated again and
         # again from different parents, and a strong heuristic is the dear part.
         self._h_keys = np.zeros(0, dtype=np.uint64)
@@ -89,7 +138,7 @@ class CostLevels:
             self.closed += len(rows)
             self._parents.append(parents)
             self._actions.append(actions)
-            self._remember(keys, rows, g)
+            self.reopened += self._closed.close(keys, rows, g)
             yield f, rows, ids, g
             self._expand(f, rows, ids, g)
         self.exhausted = True
@@ -106,44 +155,10 @@ class CostLevels:
 
     def _new_states(self, rows, parents, actions, g):
         """The rows not yet closed at a g as small, one per distinct state (its smallest g), with keys."""
-        keys = state_keys(rows)
-        order = np.lexsort((g, keys))
-        keys = keys[order]
-        first = np.ones(len(keys), dtype=bool)
-        first[1:] = keys[1:] != keys[:-1]
-        pick = order[first]
-        keys = keys[first]
-        if len(pick) < len(rows):
-            back = np.cumsum(first) - 1              # each sorted row's kept representative
-            if (rows[pick][back] != rows[order]).any():
-                raise StateKeyCollision("two states of one cost level share a key")
+        pick, keys = cheapest_unique(rows, g)
         rows, parents, actions, g = rows[pick], parents[pick], actions[pick], g[pick]
-        fresh = ~self._closed_mask(keys, rows, g)
+        fresh = ~self._closed.closed_mask(keys, rows, g)
         return rows[fresh], parents[fresh], actions[fresh], g[fresh], keys[fresh]
-
-    def _closed_mask(self, keys, rows, g) -> np.ndarray:
-        """(N,) bool: which states (sorted unique keys) are closed already at a g no larger."""
-        if not len(self._keys):
-            return np.zeros(len(keys), dtype=bool)
-        pos = np.minimum(np.searchsorted(self._keys, keys), len(self._keys) - 1)
-        hit = self._keys[pos] == keys
-        if (self._rows[pos[hit]] != rows[hit]).any():
-            raise StateKeyCollision("a new state shares its key with a closed one")
-        return hit & (self._g[pos] <= g)
-
-    def _remember(self, keys, rows, g) -> None:
-        pos = np.searchsorted(self._keys, keys)    # keys are sorted: the merge stays sorted
-        known = np.zeros(len(keys), dtype=bool)
-        if len(self._keys):
-            inside = pos < len(self._keys)
-            known[inside] = self._keys[pos[inside]] == keys[inside]
-        if known.any():                            # reopened: a smaller g than before
-            self.reopened += int(known.sum())
-            self._g[pos[known]] = g[known]
-        new = ~known
-        self._keys = np.insert(self._keys, pos[new], keys[new])
-        self._rows = np.insert(self._rows, pos[new], rows[new], axis=0)
-        self._g = np.insert(self._g, pos[new], g[new])
 
     def _cached_h(self, keys, rows) -> np.ndarray:
         """h of states with sorted unique keys, computed only for those never seen before."""
@@ -172,14 +187,9 @@ class CostLevels:
             child = self.after_step(child)
         # One copy of each child, the one of smallest g; sorted keys make the closed lookup sequential.
         g_child = g[parent] + cost
-        keys = state_keys(child)
-        order = np.lexsort((g_child, keys))
-        keys = keys[order]
-        first = np.ones(len(keys), dtype=bool)
-        first[1:] = keys[1:] != keys[:-1]
-        order, keys = order[first], keys[first]
+        order, keys = cheapest_unique(child, g_child)
         parent, action, child, g_child = parent[order], action[order], child[order], g_child[order]
-        keep = ~self._closed_mask(keys, child, g_child)
+        keep = ~self._closed.closed_mask(keys, child, g_child)
         parent, action, child, g_child = parent[keep], action[keep], child[keep], g_child[keep]
         if self.h is None:
             f_child = g_child
