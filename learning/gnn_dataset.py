@@ -306,7 +306,9 @@ def label_states(states: list[int], cfg: DatasetConfig, checkpoint: Path, known:
             pool = None
         else:
             pool = mp.get_context("fork").Pool(cfg.workers, initializer=_init_worker, initargs=args)
-            results = pool.imap_unordered(_label_one, todo)
+            # contiguous runs of states per worker: neighbours share heuristic values (CachedHeuristic)
+            chunk = max(1, min(25, len(todo) // (4 * cfg.workers)))
+            results = pool.imap_unordered(_label_one, todo, chunksize=chunk)
         try:
             for state, value, costs, seconds, complete in results:
                 if not complete:

@@ -127,6 +127,50 @@ class UnionGoal:
         return self.h(batch, dnf)
 
 
+class CachedHeuristic:
+    """Memoizes a heuristic h(batch, unsettled) by (unsettled task set, state), exactly (the state's words).
+
+    A state is generated again and again, by other parents and by the searches of
+    neighbouring dataset states (consecutive states of a rollout share most of
+    their search space, and at each phase the same tasks are unsettled), and the
+    wrapped heuristic is a pure function of the state and the unsettled set. The
+    cache keeps at most `max_entries` values; past that the oldest task sets go.
+    """
+
+    def __init__(self, inner, max_entries: int = 1_500_000):
+        self.inner, self.name, self.max_entries = inner, getattr(inner, "name", "cached"), max_entries
+        self.tables: dict[bytes, dict] = {}          # unsettled mask -> {state bytes: h}; insertion order = age
+        self.size = 0
+        self.calls = self.computed = 0
+
+    def __call__(self, batch: np.ndarray, unsettled: np.ndarray) -> np.ndarray:
+        n = len(batch)
+        if not n:
+            return np.zeros(0, dtype=np.int64)
+        key = unsettled.tobytes()
+        table = self.tables.pop(key, None)
+        if table is None:
+            table = {}
+        self.tables[key] = table                     # most recently used last
+        width = batch.shape[1] * batch.itemsize
+        raw = np.ascontiguousarray(batch).tobytes()
+        rows = [raw[i: i + width] for i in range(0, n * width, width)]
+        out = np.fromiter((table.get(r, -1) for r in rows), dtype=np.int64, count=n)
+        miss = np.flatnonzero(out < 0)
+        self.calls += n
+        if len(miss):
+            h = self.inner(batch[miss], unsettled)
+            out[miss] = h
+            for i, v in zip(miss.tolist(), h.tolist()):
+                table[rows[i]] = v
+            self.computed += len(miss)
+            self.size += len(miss)
+            while self.size > self.max_entries and len(self.tables) > 1:
+                old = next(iter(self.tables))
+                self.size -= len(self.tables.pop(old))
+        return out
+
+
 @dataclass
 class TaskCosts:
     """The optimal cost of every task from one state (-1: no plan exists, or a limit stopped the search)."""
@@ -142,12 +186,15 @@ class TaskCosts:
 class MultiGoalSearch:
     """A* by f-levels whose goal is any still-unsettled task: every task's optimal cost in one search."""
 
-    def __init__(self, bm: BatchedModel, goals: TaskGoals, heuristic=None, on_pop=None):
+    def __init__(self, bm: BatchedModel, goals: TaskGoals, heuristic=None, on_pop=None, deepest_first: bool = False):
         """`heuristic` scores every generated state; `on_pop` (optional, costlier, e.g. LM-cut)
-        re-scores a state only when it is about to be closed, and defers it if its f rises."""
+        re-scores a state only when it is about to be closed, and defers it if its f rises.
+        `deepest_first`: within an f-level, close the states of largest g first (ties of f
+        broken toward goals, which matters on the plateau f = C*; any order within a level is exact)."""
         self.bm, self.goals = bm, goals
         self.h = heuristic or Blind()
         self.on_pop = on_pop
+        self.deepest_first = deepest_first
 
     def costs(self, state: int, time_limit: float | None = None, max_states: int | None = None) -> TaskCosts:
         """Every task's optimal cost from `state` (an int state of the model)."""
@@ -169,19 +216,25 @@ class MultiGoalSearch:
             keep = ~closed_states.closed_mask(keys, rows[pick], g[pick])
             return pick[keep], keys[keep]
 
-        open_: dict[int, list] = {}
-        heap: list[int] = []
+        open_: dict[tuple, list] = {}
+        heap: list[tuple] = []
+        deep = self.deepest_first
 
         def push(rows, g, f, scored=False):
-            for level in np.unique(f):
-                if level >= INF:
-                    continue
-                sel = f == level
-                level = int(level)
+            ok = f < INF
+            rows, g, f = rows[ok], g[ok], f[ok]
+            if not len(f):
+                return
+            tie = -g if deep else np.zeros_like(g)
+            order = np.lexsort((tie, f))
+            rows, g, f, tie = rows[order], g[order], f[order], tie[order]
+            cut = np.flatnonzero((f[1:] != f[:-1]) | (tie[1:] != tie[:-1])) + 1
+            for lo, hi in zip(np.r_[0, cut].tolist(), np.r_[cut, len(f)].tolist()):
+                level = (int(f[lo]), int(tie[lo]))
                 if level not in open_:
                     open_[level] = []
                     heapq.heappush(heap, level)
-                open_[level].append((rows[sel], g[sel], version, scored))
+                open_[level].append((rows[lo:hi], g[lo:hi], version, scored))
 
         h0 = self.h(start, unsettled)
         push(start, np.zeros(1, dtype=np.int64), h0)
@@ -191,8 +244,9 @@ class MultiGoalSearch:
                     (max_states is not None and closed >= max_states):
                 complete = False
                 break
-            f = heapq.heappop(heap)
-            chunks = open_.pop(f)
+            level = heapq.heappop(heap)
+            chunks = open_.pop(level)
+            f = level[0]
             rows = np.concatenate([c[0] for c in chunks])
             g = np.concatenate([c[1] for c in chunks])
             # Rows to re-score: queued under a larger task set (their f may have risen
@@ -278,7 +332,8 @@ class Labeller:
     "lmcut" (LM-cut of the unsettled tasks' goals joined by "or"; planning.lmcut).
     """
 
-    def __init__(self, model, heuristic: str = "lmcut", time_limit: float | None = None):
+    def __init__(self, model, heuristic: str = "lmcut", time_limit: float | None = None, cache: bool = True,
+                 deepest_first: bool = False):
         if heuristic not in HEURISTICS:
             raise DomainError("--heuristic", f"'{heuristic}' is not one of {', '.join(HEURISTICS)}")
         self.model, self.time_limit = model, time_limit
@@ -295,7 +350,9 @@ class Labeller:
                 # LM-cut of the disjunction dominates the min of the h_max's: it replaces them
                 h = UnionGoal(self.goals, lmcut(self.model, self.bm, h.hmax), "lmcut")
         self.heuristic = heuristic
-        self.search = MultiGoalSearch(self.bm, self.goals, h)
+        if cache and heuristic != "blind":
+            h = CachedHeuristic(h)
+        self.search = MultiGoalSearch(self.bm, self.goals, h, deepest_first=deepest_first)
 
     def label(self, state: int) -> Label:
         """C_AP of a state exactly as given (apply the finished task's consumption first)."""

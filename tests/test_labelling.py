@@ -175,3 +175,17 @@ def test_costs_equal_single_task_plans_on_random_states(two_room):
         label = lab.label(state)
         for task, c in zip(two_room.tasks, label.costs):
             assert c == optimal_plan(lab.bm, state, task, hmax=hmax).cost, task.name
+
+
+def test_cache_and_tie_breaking_change_no_cost(two_room):
+    """The memoized LM-cut and deepest-first ties settle the same costs as the plain search;
+    labelling neighbouring states one after another reuses heuristic values."""
+    states = random_walk_states(two_room, 3, seed=8, walk=6)
+    plain = Labeller(two_room, "lmcut", cache=False)
+    cached = Labeller(two_room, "lmcut")
+    deep = Labeller(two_room, "lmcut", deepest_first=True)
+    for s in states:
+        want = plain.label(s).costs
+        assert (cached.label(s).costs == want).all() and (deep.label(s).costs == want).all()
+    h = cached.search.h
+    assert 0 < h.computed < h.calls
