@@ -37,12 +37,13 @@ from tqdm import tqdm
 
 from experiments.calibrate import goal_reward
 from planning import cli
+from planning.atomic import write_text
 from planning.compiler import compile_domain
 from planning.errors import DomainError
 from planning.task_stream import PersistentWorld, TaskStream
 
 from .encoding import Encoding
-from .qnet import (COMPLETE, CONTINUE, TERMINAL, ValueFunction, build_network, masked_max, network_payload,
+from .qnet import (COMPLETE, CONTINUE, TERMINAL, BoundaryCache, ValueFunction, build_network, masked_max, network_payload,
                    read_checkpoint, save_checkpoint, td_targets)
 from .replay import Replay, mixed_batch
 
@@ -217,6 +218,7 @@ class Trainer:
         self.net = build_network(self.enc, cfg.hidden)
         self.target = build_network(self.enc, cfg.hidden)
         self.target.load_state_dict(self.net.state_dict())
+        self.boundary = BoundaryCache()        # target values of replayed completion states, per sync
         self.opt = torch.optim.Adam(self.net.parameters(), lr=cfg.lr, foreach=True)
         self.memory = Replay(cfg.buffer_size, self.enc.n_words)
         self.demos = demonstrations(model, self.enc, cfg, self.r_goal, self.scale, self.terminal_reset, progress)
@@ -267,7 +269,7 @@ class Trainer:
         """One gradient step on a minibatch with the protected demo share."""
         cfg = self.cfg
         batch = mixed_batch(self.memory, self.demos, cfg.batch_size, cfg.demo_fraction, self.rng)
-        y = td_targets(self.net, self.target, self.enc, batch, cfg.gamma, cfg.horizon)
+        y = td_targets(self.net, self.target, self.enc, batch, cfg.gamma, cfg.horizon, self.boundary)
         obs = torch.from_numpy(self.enc.observe(batch["states"], batch["tasks"]))
         valid = self.enc.valid_for(batch["states"], batch["tasks"])
         actions = torch.from_numpy(batch["actions"])
@@ -280,6 +282,11 @@ class Trainer:
         self.stats["q"].append(float(q.detach().mean()))
         self.stats["y"].append(float(y.mean()))
         self.stats["loss"].append(float(loss.detach()))
+
+    def sync_target(self) -> None:
+        """Copy the online weights into the target network; its cached boundary values are stale."""
+        self.target.load_state_dict(self.net.state_dict())
+        self.boundary.clear()
 
     def act(self, state: int, task: int, eps: float) -> int:
         """ε-greedy over the applicable actions (line 5)."""
@@ -322,7 +329,7 @@ class Trainer:
                 self.update()                                                     # lines 8-20
                 updates += 1
             if self.step % cfg.target_every == 0:                                # lines 22-24
-                self.target.load_state_dict(self.net.state_dict())
+                self.sync_target()
             if self.step % cfg.log_every == 0:
                 dt = time.perf_counter() - t0
                 row = self._log(eps=epsilon(cfg, self.step), steps_per_s=(self.step - s0) / dt,
@@ -399,6 +406,7 @@ class Trainer:
             raise DomainError(path, "was trained on a different compilation of this layout")
         self.net.load_state_dict(p["net"])
         self.target.load_state_dict(p["target"])
+        self.boundary.clear()
         self.opt.load_state_dict(p["opt"])
         self.memory.load_state_dict(p["memory"])
         self.step, self.tasks_done, self.best = p["step"], p["tasks_done"], p["best"]
@@ -412,6 +420,16 @@ class Trainer:
         self.world.task = None if w["task"] is None else self.model.tasks[w["task"]]
         self.world._cost, self.world._actions = w["cost"], w["actions"]
         torch.set_rng_state(p["torch_rng"])
+        self._trim_metrics()
+
+    def _trim_metrics(self) -> None:
+        """Drop metrics rows written after the checkpoint resumed from: those steps run again."""
+        if not self.metrics.is_file():
+            return
+        keep = [line for line in self.metrics.read_text().splitlines()
+                if line.strip() and (json.loads(line).get("step", json.loads(line).get("eval", {}).get("step", 0))
+                                     <= self.step)]
+        write_text(self.metrics, "".join(line + "\n" for line in keep))
 
 
 def make_config(args) -> Config:

@@ -240,14 +240,52 @@ def preparedness(online: nn.Module, target: nn.Module, enc: Encoding, packed: np
     return (v @ torch.from_numpy(enc.task_prob[enc.support])).numpy()
 
 
+class BoundaryCache:
+    """Target-network values of the boundary pairs, per completion state, valid until the next target sync.
+
+    The anticipatory target needs Q_target(s', τ', ·) for every task of the support
+    at every replayed completion state s'. The target network only changes at a
+    sync, and a completion state is replayed several times between syncs (demos
+    most of all), so those rows are computed once per sync; the online argmax is
+    recomputed every update, so the Double-DQN target stays exact. Clear it
+    whenever the target network changes.
+    """
+
+    def __init__(self, max_states: int = 4096):   # ~50 KB a state (two-room)
+        self.max_states, self.entries = max_states, {}
+
+    def __len__(self) -> int:
+        return len(self.entries)
+
+    def clear(self) -> None:
+        """Forget every entry (call at each target sync)."""
+        self.entries.clear()
+
+
+def _boundary_inputs(enc: Encoding, states: np.ndarray, cache: BoundaryCache | None):
+    """Observations, validity and cached target values (None where missing) of each state's support pairs."""
+    keys = [s.tobytes() for s in states]
+    hit = [cache.entries.get(k) if cache is not None else None for k in keys]
+    miss = [j for j, e in enumerate(hit) if e is None]
+    k = len(enc.support)
+    fresh = {}
+    if miss:
+        obs, valid = _pairs(enc, states[miss])
+        for i, j in enumerate(miss):
+            fresh[j] = (obs[i * k:(i + 1) * k], valid[i * k:(i + 1) * k])
+    parts = [fresh[j] if hit[j] is None else hit[j][:2] for j in range(len(states))]
+    return keys, parts, hit, miss
+
+
 def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict, gamma: float,
-               horizon: str) -> torch.Tensor:
+               horizon: str, cache: BoundaryCache | None = None) -> torch.Tensor:
     """Double-DQN targets of Algorithm 1 (lines 11-17) for a batch of stored transitions.
 
     batch: next_states (N, W) uint64, tasks (N,), rewards (N,), kinds (N,) (CONTINUE /
     COMPLETE / TERMINAL). The online net picks, the target net values. The
     same-task pairs and the boundary pairs (every completion's s' with every task
-    of the support) go through each network in one batched call.
+    of the support) go through each network in one batched call; with a cache,
+    the target net sees only the boundary states it has not valued since the last sync.
     """
     if horizon not in ("myopic", "anticipatory"):
         raise DomainError("--horizon", f"'{horizon}' is neither myopic nor anticipatory")
@@ -260,20 +298,32 @@ def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict,
         return y
     tasks = np.asarray(batch["tasks"])[cont]
     obs, valid = [enc.observe(nxt[cont], tasks)], [enc.valid_for(nxt[cont], tasks)]
+    n, k = len(cont), len(enc.support)
+    keys, hit, miss = [], [], []
     if len(comp):
-        o, v = _pairs(enc, nxt[comp])
-        obs.append(o)
-        valid.append(v)
-    obs = torch.from_numpy(np.concatenate(obs))
-    valid = torch.from_numpy(np.concatenate(valid))
+        keys, parts, hit, miss = _boundary_inputs(enc, nxt[comp], cache)
+        obs += [o for o, _ in parts]
+        valid += [v for _, v in parts]
+    obs_all, valid_all = np.concatenate(obs), np.concatenate(valid)
+    rows_t = np.concatenate([np.arange(n)] + [n + j * k + np.arange(k) for j in miss]).astype(np.int64)
     with torch.inference_mode():
-        _, best = masked_max(online(obs, valid), valid)
-        qt = target(obs, valid).gather(1, best[:, None])[:, 0]
-    k = len(cont)
-    y[torch.from_numpy(cont)] += gamma * qt[:k]
+        _, best = masked_max(online(torch.from_numpy(obs_all), torch.from_numpy(valid_all)), torch.from_numpy(valid_all))
+        fresh = target(torch.from_numpy(obs_all[rows_t]), torch.from_numpy(valid_all[rows_t])).numpy()
+    qt = np.empty((len(obs_all), enc.n_actions), dtype=np.float32)
+    qt[rows_t] = fresh
+    for j, e in enumerate(hit):
+        if e is not None:
+            qt[n + j * k:n + (j + 1) * k] = e[2]
+    if cache is not None:
+        for j in miss:
+            if len(cache.entries) < cache.max_states:
+                sl = slice(n + j * k, n + (j + 1) * k)
+                cache.entries[keys[j]] = (obs_all[sl].copy(), valid_all[sl].copy(), qt[sl].copy())
+    picked = torch.from_numpy(qt[np.arange(len(qt)), best.numpy()])
+    y[torch.from_numpy(cont)] += gamma * picked[:n]
     if len(comp):
         p = torch.from_numpy(enc.task_prob[enc.support]).float()
-        y[torch.from_numpy(comp)] += gamma * (qt[k:].reshape(len(comp), len(enc.support)) @ p)
+        y[torch.from_numpy(comp)] += gamma * (picked[n:].reshape(len(comp), k) @ p)
     return y
 
 

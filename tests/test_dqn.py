@@ -47,7 +47,11 @@ def test_short_training_learns_the_first_task_and_resumes(minimal, tmp_path):
     assert (tmp_path / "best.pt").is_file() and (tmp_path / "last.pt").is_file()
     # resume: a new trainer picks up the step, memory and world where the last one stopped
     again = Trainer(small_config(minimal, tmp_path, steps=1250), progress=False)
+    with open(tmp_path / "metrics.jsonl", "a") as f:      # a row logged after the checkpoint, then interrupted
+        f.write(json.dumps({"step": 1300, "tasks": 0}) + "\n")
     again.resume(tmp_path / "last.pt")
+    steps = [json.loads(line).get("step") for line in (tmp_path / "metrics.jsonl").read_text().splitlines()]
+    assert 1300 not in steps and 1000 in steps                # rows past the checkpoint are dropped on resume
     assert again.step == 1200 and len(again.memory) == len(trainer.memory)
     assert again.world.state == trainer.world.state
     again.train()

@@ -6,7 +6,8 @@ import pytest
 import torch
 
 from learning.encoding import Encoding
-from learning.qnet import (COMPLETE, CONTINUE, TERMINAL, build_network, load_value_function, network_payload,
+from learning.qnet import (COMPLETE, CONTINUE, TERMINAL, BoundaryCache, build_network, load_value_function,
+                           network_payload,
                            save_checkpoint, td_targets)
 from planning.errors import DomainError
 from tests.conftest import random_walk_states
@@ -197,3 +198,37 @@ def test_numpy_inference_matches_the_network(two_room, enc, net):
     assert np.allclose(got[valid], expect[valid], atol=1e-4) and np.isneginf(got[~valid]).all()
     from learning.qnet import ValueFunction
     assert np.allclose(ValueFunction(net, enc).v_ap(states), preparedness(net, net, enc, packed), atol=1e-4)
+
+
+class CountingNet(TableNet):
+    """A TableNet that counts the rows it is asked to value."""
+
+    rows = 0
+
+    def forward(self, obs, valid):
+        self.rows += len(obs)
+        return super().forward(obs, valid)
+
+
+def test_boundary_cache_is_exact_and_spares_the_target_net(two_room, enc):
+    T = len(two_room.tasks)
+    online = TableNet(enc, np.zeros(T), slope=1.0)
+    target = CountingNet(enc, np.arange(T) * 10.0, slope=-1.0)
+    states = enc.pack(random_walk_states(two_room, 3, seed=11))
+    batch = {"next_states": np.concatenate([states, states[:1]]), "tasks": np.array([1, 2, 3, 4]),
+             "rewards": np.array([-1.0, 50.0, 60.0, 50.0], dtype=np.float32),
+             "kinds": np.array([CONTINUE, COMPLETE, COMPLETE, COMPLETE], dtype=np.int8)}
+    plain = td_targets(online, target, enc, batch, 0.97, "anticipatory").numpy()
+    cache = BoundaryCache()
+    first = td_targets(online, target, enc, batch, 0.97, "anticipatory", cache).numpy()
+    np.testing.assert_allclose(first, plain, rtol=1e-6)
+    assert len(cache) == 3                                   # one entry per distinct completion state
+    target.rows = 0
+    again = td_targets(online, target, enc, batch, 0.97, "anticipatory", cache).numpy()
+    np.testing.assert_allclose(again, plain, rtol=1e-6)
+    assert target.rows == 1                                  # only the within-task row reaches the target net
+    # the trainer clears the cache when the target network is synced
+    target.base = target.base + 5.0
+    cache.clear()
+    moved = td_targets(online, target, enc, batch, 0.97, "anticipatory", cache).numpy()
+    np.testing.assert_allclose(moved[1:], plain[1:] + 0.97 * 5.0, rtol=1e-5)
