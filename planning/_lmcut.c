@@ -7,6 +7,9 @@
  * precondition-choice function, the goal zone backwards through zero-cost achievers, the
  * literals reached from the state without entering the zone, and the cut, whose cheapest
  * operator cost is added to h and taken off every operator of the cut.
+ *
+ * With a `cuts` buffer it also records every cut (the landmarks, for operator counting):
+ * state, operator count, then the operators; -2 when the buffer is too small.
  */
 #include <stdint.h>
 #include <stdlib.h>
@@ -55,18 +58,21 @@ static item pop(heap_t *hp) {
     return top;
 }
 
-/* Returns 0, or -1 if memory ran out. holds: N rows of C bytes; out: N values. */
+/* Returns 0, -1 if memory ran out, -2 if `cuts` (cut_cap values) is too small.
+   holds: N rows of C bytes; out: N values; *cut_len: values written to cuts. */
 int lmcut_batch(int64_t N, int64_t C, int64_t A, int64_t O, int64_t W, const int64_t *pre,
                 const int64_t *pre_of_start, const int64_t *pre_of, const int32_t *n_pre,
                 const int64_t *eff, const int64_t *owner, const int64_t *eff_start,
                 const int32_t *op_cost0, const int64_t *op_start, const int64_t *op_ach,
-                int64_t goal_col, const uint8_t *holds, int64_t *out) {
+                int64_t goal_col, const uint8_t *holds, int64_t *out,
+                int64_t *cuts, int64_t cut_cap, int64_t *cut_len) {
     int32_t *hm = malloc(C * sizeof(int32_t)), *unsat = malloc(A * sizeof(int32_t)),
             *pcf = malloc(A * sizeof(int32_t)), *cost = malloc(O * sizeof(int32_t)),
             *stack = malloc(C * sizeof(int32_t)), *cutops = malloc(O * sizeof(int32_t));
     uint8_t *done = malloc(C), *zone = malloc(C), *reach = malloc(C), *cutmark = calloc(O, 1);
     heap_t hp = {malloc((C + A + 1) * sizeof(item)), 0, C + A + 1};
     int status = 0;
+    if (cut_len) *cut_len = 0;
     if (!hm || !unsat || !pcf || !cost || !stack || !cutops || !done || !zone || !reach || !cutmark || !hp.items) {
         status = -1;
         goto end;
@@ -151,6 +157,12 @@ int lmcut_batch(int64_t N, int64_t C, int64_t A, int64_t O, int64_t W, const int
                         stack[sp++] = (int32_t)e;
                     }
                 }
+            }
+            if (cuts && ncut > 0) {
+                if (*cut_len + 2 + ncut > cut_cap) { status = -2; goto end; }
+                cuts[(*cut_len)++] = s;
+                cuts[(*cut_len)++] = ncut;
+                for (int64_t i = 0; i < ncut; i++) cuts[(*cut_len)++] = cutops[i];
             }
             for (int64_t i = 0; i < ncut; i++) {
                 cost[cutops[i]] -= m;

@@ -83,10 +83,14 @@ class JointSearch:
         return self._relaxed[key]
 
     def plan(self, state: int, tasks: list, max_states: int | None = None,
-             time_limit: float | None = None, heuristic: str = "layered") -> SearchResult:
+             time_limit: float | None = None, heuristic: str = "layered", weight: int = 1) -> SearchResult:
         """An optimal plan that completes the tasks in order from a world state.
 
         heuristic: "layered" (LM-cut of the stages left), "lmcut" or "hmax" (of the current stage).
+        weight > 1: weighted A* (f = g + weight * h), a plan at most `weight` times the optimal
+        cost, found much sooner (the fallback of a window past its time limit); the result's
+        lower_bound is then the last f-level / weight. With weight 1 an interrupted search
+        still proves lower_bound <= the optimal cost.
         """
         if heuristic not in ("layered", "lmcut", "hmax"):
             raise DomainError(heuristic, "unknown joint heuristic, choose layered, lmcut or hmax")
@@ -107,7 +111,7 @@ class JointSearch:
                     out[sel] = self.lmcut.of_relaxed(batch[sel], self.relaxation(tasks, k))
                 else:
                     out[sel] = (self.lmcut if heuristic == "lmcut" else self.hmax)(batch[sel], goals[k])
-            return out
+            return np.where(out >= INF_64, INF_64, out * weight)
 
         levels = CostLevels(self.bm, self.bm.unpack(start)[0], max_states, time_limit, heuristic=h,
                             after_step=lambda b: self._complete(b, tasks))
@@ -116,8 +120,9 @@ class JointSearch:
             hit = np.flatnonzero((rows[:, w] & b) != 0)
             if len(hit):
                 i = hit[np.argmin(g[hit])]
-                return SearchResult(levels.plan_to(int(ids[i])), int(g[i]), levels.closed, True)
-        return SearchResult(None, None, levels.closed, levels.exhausted)
+                return SearchResult(levels.plan_to(int(ids[i])), int(g[i]), levels.closed, True,
+                                    -(-levels.f // weight))
+        return SearchResult(None, None, levels.closed, levels.exhausted, -(-levels.f // weight))
 
 
 def layered_relaxation(lmcut: LMCut, n: int, tasks: list, first: int) -> Relaxed:

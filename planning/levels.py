@@ -106,6 +106,7 @@ class CostLevels:
         self.max_states = max_states
         self.deadline = None if time_limit is None else time.perf_counter() + time_limit
         self.closed = 0
+        self.f = 0                      # the level being closed: a lower bound on any goal's cost
         self.reopened = 0               # closings of a state already closed at a larger g
         self.exhausted = False          # True when every reachable state was closed
         self._closed = ClosedStates(bm.n_words)
@@ -130,6 +131,7 @@ class CostLevels:
             f = heapq.heappop(self._heap)
             if f >= INF:
                 break
+            self.f = f
             rows, parents, actions, g = (np.concatenate(x) for x in zip(*self._open.pop(f)))
             rows, parents, actions, g, keys = self._new_states(rows, parents, actions, g)
             if not len(rows):

@@ -105,15 +105,48 @@ class LMCut:
             if lib is None:
                 out[lo: lo + CHUNK] = lmcut_values(holds, task)
                 continue
-            rows = np.ascontiguousarray(holds.T, dtype=np.uint8)
-            part = np.zeros(len(rows), dtype=np.int64)
-            if lib.lmcut_batch(len(rows), task.n_cols, len(task.eff), len(task.op_cost), task.pre.shape[1],
-                               task.pre, task.pre_of_start,
-                               task.pre_of, task.n_pre, task.eff, task.owner, task.eff_start, task.op_cost,
-                               task.op_start, task.op_ach, task.goal_col, rows, part) != 0:
-                raise MemoryError("LM-cut: out of memory")
-            out[lo: lo + CHUNK] = part
+            out[lo: lo + CHUNK] = _native_batch(lib, task, holds)[0]
         return out
+
+    def landmarks(self, batch: np.ndarray, task: "Relaxed") -> tuple[np.ndarray, list]:
+        """LM-cut of each state and its cuts: (N,) values, [[operator indices of task] per cut] per state.
+
+        Every relaxed plan from the state uses an operator of every cut (the
+        landmarks operator counting constrains). Needs the compiled LM-cut.
+        """
+        lib = native()
+        if lib is None:
+            raise DomainError("LM-cut", "landmarks need the compiled LM-cut (a C compiler, LMCUT_NATIVE=1)")
+        holds = task.holds(self.bm.to_bits(batch).astype(bool).T)
+        h, flat = _native_batch(lib, task, holds, landmarks=True)
+        cuts = [[] for _ in range(len(batch))]
+        i = 0
+        while i < len(flat):
+            s, k = int(flat[i]), int(flat[i + 1])
+            cuts[s].append(flat[i + 2: i + 2 + k])
+            i += 2 + k
+        return h, cuts
+
+
+def _native_batch(lib, task: "Relaxed", holds: np.ndarray, landmarks: bool = False):
+    """The compiled LM-cut of states given their initial literals (columns, N): values and the flat cut record."""
+    rows = np.ascontiguousarray(holds.T, dtype=np.uint8)
+    out = np.zeros(len(rows), dtype=np.int64)
+    cap = 64 * len(task.op_cost) * len(rows) if landmarks else 0
+    while True:
+        cuts = np.zeros(cap, dtype=np.int64)
+        used = np.zeros(1, dtype=np.int64)
+        status = lib.lmcut_batch(len(rows), task.n_cols, len(task.eff), len(task.op_cost), task.pre.shape[1],
+                                 task.pre, task.pre_of_start, task.pre_of, task.n_pre, task.eff, task.owner,
+                                 task.eff_start, task.op_cost, task.op_start, task.op_ach, task.goal_col, rows, out,
+                                 cuts.ctypes.data if landmarks else None, cap,
+                                 used.ctypes.data if landmarks else None)
+        if status == -2:
+            cap *= 4
+            continue
+        if status != 0:
+            raise MemoryError("LM-cut: out of memory")
+        return out, cuts[: used[0]]
 
 
 _NATIVE = None
@@ -153,7 +186,8 @@ def _load_native():
     u8 = np.ctypeslib.ndpointer(np.uint8, flags="C_CONTIGUOUS")
     n = ctypes.c_int64
     so.lmcut_batch.restype = ctypes.c_int
-    so.lmcut_batch.argtypes = [n, n, n, n, n, i64, i64, i64, i32, i64, i64, i64, i32, i64, i64, n, u8, i64]
+    so.lmcut_batch.argtypes = [n, n, n, n, n, i64, i64, i64, i32, i64, i64, i64, i32, i64, i64, n, u8, i64,
+                                ctypes.c_void_p, n, ctypes.c_void_p]
     return so
 
 
@@ -178,6 +212,7 @@ class Relaxed(NamedTuple):
     eff_start: np.ndarray     # (columns + 1,) the achievers of column c are eff_start[c]:eff_start[c + 1]
     op_start: np.ndarray      # CSR, operator -> ...
     op_ach: np.ndarray        # ... its achievers
+    op_keys: list             # the operator behind each operator index
 
     def holds(self, bits: np.ndarray) -> np.ndarray:
         """(columns, N) bool: the initial literals, from (atoms, N) state bits."""
@@ -233,7 +268,7 @@ def compile_relaxed(achievers: list, costs: dict, goal, initial: dict) -> Relaxe
                    true_col + 1, keys, pre_of_start.astype(np.int64), pre_of, n_pre,
                    np.searchsorted(eff, np.arange(true_col + 2)).astype(np.int64),
                    np.searchsorted(owner[np.argsort(owner, kind="stable")], np.arange(len(ops) + 1)).astype(np.int64),
-                   np.argsort(owner, kind="stable").astype(np.int64))
+                   np.argsort(owner, kind="stable").astype(np.int64), ops)
 
 
 def lmcut_values(holds: np.ndarray, task: Relaxed) -> np.ndarray:

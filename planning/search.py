@@ -16,6 +16,7 @@ class SearchResult:
     cost: int | None
     expansions: int
     complete: bool = True      # False if a limit stopped the search before a verdict
+    lower_bound: int | None = None  # proven lower bound on the optimal cost (the last f-level closed)
 
 
 def uniform_cost_search(model, state: int, task, max_expansions: int | None = None) -> SearchResult:

@@ -78,14 +78,29 @@ def test_clairvoyant_k1_reproduces_the_myopic_oracle(two_room):
     assert all(r["optimal"] for r in k1 if "window" in r)
 
 
-def test_clairvoyant_window_timeout_falls_back_and_is_marked(two_room):
+def test_clairvoyant_window_timeout_falls_back_and_is_marked(two_room, joint):
     from oracles.clairvoyant import ClairvoyantOracle
 
     oracle = ClairvoyantOracle(2, time_limit=0.01)
     oracle.start(two_room, None)
     water = two_room.tasks.get("serve-water(servingtable)")
-    reply = oracle.plan(two_room.reset_state(0), water, [water])
-    assert reply.info["bounded"] and not reply.info["optimal"] and len(reply.plan) == 5
+    state = two_room.reset_state(0)
+    reply = oracle.plan(state, water, [water])
+    info = reply.info
+    assert info["bounded"] and not info["optimal"] and len(reply.plan) == 5
+    # The bracket: the interrupted A*'s bound <= the optimal joint cost <= the myopic chain's cost.
+    first = optimal_plan(oracle._bm, state, water)
+    after = water.consume(_run(two_room, state, first.plan))
+    second = optimal_plan(oracle._bm, after, water)
+    assert info["window_cost"] == first.cost + second.cost == 1475 + 1300
+    best = joint.plan(state, [water, water]).cost
+    assert info["lower_bound"] <= best < info["window_cost"]
+
+
+def _run(model, state, plan):
+    for a in plan:
+        state = model.apply(state, a)
+    return state
 
 
 def joint_states_along(joint, state, window, plan):
