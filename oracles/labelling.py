@@ -195,6 +195,7 @@ class MultiGoalSearch:
         self.h = heuristic or Blind()
         self.on_pop = on_pop
         self.deepest_first = deepest_first
+        self.trace = None           # a list: (f, states closed) is appended at every closing
 
     def costs(self, state: int, time_limit: float | None = None, max_states: int | None = None) -> TaskCosts:
         """Every task's optimal cost from `state` (an int state of the model)."""
@@ -268,6 +269,8 @@ class MultiGoalSearch:
             # Close: new states are inserted, reopened ones get their smaller g.
             reopened += closed_states.close(keys, rows, g)
             closed += len(rows)
+            if self.trace is not None:
+                self.trace.append((f, len(rows)))
             # Settle the tasks whose goal this level reaches, at the smallest g among its goal states.
             open_tasks = np.flatnonzero(unsettled)
             for lo in range(0, len(rows), CHUNK):
