@@ -441,7 +441,7 @@ def main() -> None:
     p.add_argument("--n-states", type=int, default=2000, help="faithful states (default: %(default)s)")
     p.add_argument("--n-prepared", type=int, default=None, help="prepared states (default: 3 x n-states)")
     p.add_argument("--workers", type=int, default=2, help="labelling processes (default: %(default)s)")
-    p.add_argument("--heuristic", default="lmcut", help="labelling search heuristic: blind, hmax, lmcut")
+    p.add_argument("--heuristic", default="lmcut", help="labelling search heuristic: blind, hmax, lmcut, lmcut-pc (default: %(default)s)")
     p.add_argument("--reuse-labels", action="append", default=[], metavar="DIR",
                    help="take the labels another gnn_dataset folder already computed (repeatable)")
     p.add_argument("--no-progress", action="store_true")
@@ -455,8 +455,9 @@ def main() -> None:
     cfg = DatasetConfig(layout=layout, domain=args.domain, n_states=args.n_states, augmented=args.augmented,
                         n_prepared=args.n_prepared, seed=args.seed, workers=args.workers,
                         heuristic=args.heuristic)
-    if cfg.heuristic not in ("blind", "hmax", "lmcut"):
-        raise DomainError("--heuristic", f"'{cfg.heuristic}' is not one of blind, hmax, lmcut")
+    from oracles.labelling import HEURISTICS
+    if cfg.heuristic not in HEURISTICS:
+        raise DomainError("--heuristic", f"'{cfg.heuristic}' is not one of {', '.join(HEURISTICS)}")
     t0 = time.perf_counter()
     meta = build(cfg, args.out, progress=not args.no_progress, reuse=args.reuse_labels)
     n = len(meta["kinds"])

@@ -298,7 +298,7 @@ class MultiGoalSearch:
 
 
 # ---- the oracle --------------------------------------------------------------------------
-HEURISTICS = ("blind", "hmax", "lmcut")
+HEURISTICS = ("blind", "hmax", "lmcut", "lmcut-pc")
 
 
 def _lmcut_class():
@@ -331,8 +331,11 @@ class Label:
 class Labeller:
     """C_AP(s) = sum_tau P(tau) C*_tau(s) over every task instantiation of a layout, by one multi-goal search.
 
-    heuristic: "blind" (Dijkstra), "hmax" (min over the unsettled tasks of h_max), or
-    "lmcut" (LM-cut of the unsettled tasks' goals joined by "or"; planning.lmcut).
+    heuristic: "blind" (Dijkstra), "hmax" (min over the unsettled tasks of h_max),
+    "lmcut" (LM-cut of the unsettled tasks' goals joined by "or"; planning.lmcut), or
+    "lmcut-pc" (the same on the P^C compilation with the agent's atom pairs,
+    oracles.conjunctions: about half the states closed, each costlier; states that
+    break the mutexes it relies on are labelled with "lmcut").
     """
 
     def __init__(self, model, heuristic: str = "lmcut", time_limit: float | None = None, cache: bool = True,
@@ -342,13 +345,23 @@ class Labeller:
         self.model, self.time_limit = model, time_limit
         self.bm = BatchedModel(model)
         self.goals = TaskGoals(self.bm, model.tasks)
+        self.fallback = None
         if heuristic == "blind":
             h = Blind()
+        elif heuristic == "lmcut-pc" and _lmcut_class() is not None:
+            from oracles.conjunctions import ConjunctionLMCut, MutexPairs, agent_pairs
+
+            self.mutex = MutexPairs(model, [model.init] + [model.reset_state(seed) for seed in range(32)])
+            pc = ConjunctionLMCut(model, self.bm, self.mutex, self.goals.literals, keep=agent_pairs(model))
+            h = UnionGoal(self.goals, pc, "lmcut-pc")
+            self.fallback = Labeller(model, "lmcut", time_limit, cache, deepest_first)
         else:
             h = MinHMax(self.goals)
             lmcut = _lmcut_class() if heuristic == "lmcut" else None
             if heuristic == "lmcut" and lmcut is None:
                 heuristic = "hmax"        # the LM-cut module is not there: h_max alone is exact too
+            elif heuristic == "lmcut-pc":
+                heuristic = "hmax"
             elif lmcut is not None:
                 # LM-cut of the disjunction dominates the min of the h_max's: it replaces them
                 h = UnionGoal(self.goals, lmcut(self.model, self.bm, h.hmax), "lmcut")
@@ -359,6 +372,8 @@ class Labeller:
 
     def label(self, state: int) -> Label:
         """C_AP of a state exactly as given (apply the finished task's consumption first)."""
+        if self.fallback is not None and not self.mutex.respects(state):
+            return self.fallback.label(state)
         r = self.search.costs(state, time_limit=self.time_limit)
         solved = r.costs >= 0
         c_ap = float(self.goals.probabilities @ np.where(solved, r.costs, 0))
