@@ -105,3 +105,15 @@ def test_rl_greedy_agent_loads_a_checkpoint_and_acts(two_room, tmp_path):
     task = next(t for t in two_room.tasks if not t.satisfied(s))
     assert agent.act(s, task) in two_room.applicable(s)
     assert agent.config["step"] == 7
+
+
+def test_throughput_benchmark_reports_rates_and_the_boundary_share():
+    from learning.bench import bench_horizon
+    r = bench_horizon(MINIMAL, "grid", "anticipatory", steps=60, updates=6, seed=0)
+    assert r["env_steps_per_s"] > 0 and r["demo_transitions"] > 0
+    for regime in ("early", "competent"):
+        e = r[regime]
+        assert e["updates_per_s"] > 0 and 0 <= e["boundary_share"] < 1
+        assert e["boundary_share_uncached"] < 1 and e["completions_per_minibatch"] >= 0
+    myopic = bench_horizon(MINIMAL, "grid", "myopic", steps=60, updates=6, seed=0)
+    assert "boundary_share" not in myopic["competent"]        # no boundary target without anticipation
