@@ -88,10 +88,24 @@ def improvement(cost: float, model, ids, reference=None) -> float | None:
 
 
 def evaluate(model, agent, ids, out=None, progress=True, reference=None) -> dict:
-    """Play the sequences (resuming from OUT.partial.json), then write and return the results."""
+    """Play the sequences (resuming from OUT.partial.json), then write and return the results.
+
+    Sequences already in a finished OUT of the same agent, configuration and
+    layout are kept, not replayed: `--sequences 0-9` extends a 0-3 run.
+    """
     partial = Path(f"{out}.partial.json") if out else None
     done: dict[int, list] = {}
     wall = 0.0
+    if out and Path(out).is_file():
+        try:
+            saved = json.loads(Path(out).read_text())
+        except json.JSONDecodeError as e:
+            raise DomainError(out, f"corrupt results ({e}); delete it to start over") from None
+        if saved.get("agent") == agent.name and saved.get("config") == agent.config \
+                and saved.get("layout") == model.layout:
+            for i in saved.get("sequences", []):
+                done[int(i)] = [r for r in saved["per_task"] if r["sequence"] == i]
+            wall = saved.get("wall_seconds", 0.0)
     if partial and partial.is_file():
         try:
             saved = json.loads(partial.read_text())
@@ -99,8 +113,8 @@ def evaluate(model, agent, ids, out=None, progress=True, reference=None) -> dict
             raise DomainError(partial, f"corrupt partial results ({e}); delete it to start over") from None
         if saved.get("agent") == agent.name and saved.get("config") == agent.config \
                 and saved.get("layout") == model.layout:
-            done = {int(k): v for k, v in saved["done"].items()}
-            wall = saved.get("wall_seconds", 0.0)
+            done.update({int(k): v for k, v in saved["done"].items()})   # newer than OUT
+            wall += saved.get("wall_seconds", 0.0)
     seqs = load(model, ids)
     todo = [s for s in seqs if s.id not in done]
     bar = tqdm(total=sum(len(s.tasks) for s in todo), desc=f"{agent.name} {model.layout}",
@@ -113,6 +127,7 @@ def evaluate(model, agent, ids, out=None, progress=True, reference=None) -> dict
             write_json(partial, {"agent": agent.name, "layout": model.layout, "config": agent.config,
                                  "wall_seconds": wall, "done": done})
     bar.close()
+    seqs = load(model, sorted(set(ids or []) | set(done))) if ids else seqs
     rows = [r for s in seqs for r in done[s.id]]
     result = summary(agent.name, model, [s.id for s in seqs], rows, wall, agent.config, reference)
     if hasattr(agent, "summary"):          # an agent's own keys (e.g. the clairvoyant's K)

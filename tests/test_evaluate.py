@@ -85,6 +85,27 @@ def test_results_json_and_resume(two_room, tmp_path, monkeypatch):
     assert [r["cost"] for r in resumed["per_task"][:6]] == [7] * 6 and not partial.exists()
 
 
+def test_a_finished_run_is_extended_not_replayed(two_room, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "r.json"
+    import experiments.evaluate as ev
+
+    real_load = ev.load
+    monkeypatch.setattr(ev, "load", lambda model, ids: [Sequence(i, 100 + i, s.tasks[:4])
+                                                        for i, s in zip(ids, real_load(model, ids))])
+    evaluate(two_room, RandomPolicy(seed=1), [0], out, progress=False)
+    data = json.loads(out.read_text())
+    for r in data["per_task"]:
+        r["cost"] = 7                           # marks the rows of the finished run
+    out.write_text(json.dumps(data))
+    both = evaluate(two_room, RandomPolicy(seed=1), [0, 1], out, progress=False)
+    assert both["sequences"] == [0, 1] and both["tasks"] == 8
+    assert [r["cost"] for r in both["per_task"] if r["sequence"] == 0] == [7] * 4
+    # Another agent's (or configuration's) results are not reused.
+    other = evaluate(two_room, RandomPolicy(seed=2), [0], out, progress=False)
+    assert [r["cost"] for r in other["per_task"]] != [7] * 4
+
+
 def test_corrupt_partial_file_is_a_one_line_error(two_room, tmp_path):
     out = tmp_path / "r.json"
     (tmp_path / "r.json.partial.json").write_text("{not json")
