@@ -214,3 +214,15 @@ def test_layered_values_agree_between_native_and_numpy(two_room, joint, monkeypa
         slow = joint.lmcut.of_relaxed(batch, relaxed)
         monkeypatch.setattr(lmcut_module, "_NATIVE", None)
         assert (fast == slow).all() and fast.min() > 0
+
+
+def test_weighted_search_is_bounded_and_its_lower_bound_holds(two_room, joint):
+    water = two_room.tasks.get("serve-water(servingtable)")
+    coffee = two_room.tasks.get("make-coffee(servingtable)")
+    state = two_room.reset_state(0)
+    best = joint.plan(state, [water, coffee])                  # 2275, as Fast Downward (slow test)
+    w = joint.plan(state, [water, coffee], weight=2)
+    assert best.cost <= w.cost <= 2 * best.cost
+    assert w.lower_bound <= best.cost == best.lower_bound
+    cut = joint.plan(state, [water, coffee], max_states=50)    # interrupted: a bound, no plan
+    assert cut.plan is None and not cut.complete and 0 < cut.lower_bound <= best.cost

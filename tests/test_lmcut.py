@@ -156,3 +156,28 @@ def test_the_slowest_myopic_task_is_fast_with_lmcut(two_room):
             world.execute([two_room.action(a) for a in row["plan"]])
     r = optimal_plan(BatchedModel(two_room), world.state, seq.tasks[21])
     assert r.cost == 3025 and r.expansions < 30_000
+
+
+def test_landmarks_are_cuts_every_plan_crosses(two_room, implementation):
+    """Each reported cut holds an action of every plan (checked on optimal plans); the cuts' count
+    and the value agree with the plain LM-cut. The landmarks come from the compiled kernel only."""
+    if implementation == "numpy":
+        pytest.skip("landmarks come from the compiled LM-cut")
+    bm = BatchedModel(two_room)
+    lm = LMCut(two_room, bm)
+    states = random_walk_states(two_room, 40, seed=7)
+    checked = 0
+    for name in ["serve-water(servingtable)", "make-coffee(servingtable)", "wash(knives)"]:
+        task = two_room.tasks.get(name)
+        relaxed = lm.tables(goal_literals(two_room, task))
+        h, cuts = lm.landmarks(bm.pack(states[:8]), relaxed)
+        assert (h == lm(bm.pack(states[:8]), goal_literals(two_room, task))).all()
+        for s, state_cuts in zip(states[:8], cuts):
+            plan = optimal_plan(bm, s, task).plan
+            if not plan:
+                continue
+            for cut in state_cuts:
+                actions = {two_room.op_action[relaxed.op_keys[o]] for o in cut}
+                assert actions & set(plan), (name, [two_room.actions[a] for a in actions])
+                checked += 1
+    assert checked > 20
