@@ -88,9 +88,8 @@ class JointSearch:
 
         heuristic: "layered" (LM-cut of the stages left), "lmcut" or "hmax" (of the current stage).
         weight > 1: weighted A* (f = g + weight * h), a plan at most `weight` times the optimal
-        cost, found much sooner (the fallback of a window past its time limit); the result's
-        lower_bound is then the last f-level / weight. With weight 1 an interrupted search
-        still proves lower_bound <= the optimal cost.
+        cost; lower_bound is then the last f-level / weight. With weight 1 an interrupted
+        search still proves lower_bound <= the optimal cost (the clairvoyant's bounded windows).
         """
         if heuristic not in ("layered", "lmcut", "hmax"):
             raise DomainError(heuristic, "unknown joint heuristic, choose layered, lmcut or hmax")
