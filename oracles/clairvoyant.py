@@ -28,6 +28,7 @@ from planning.compiler import compile_domain
 from planning.heuristics import HMax
 from planning.joint import JointSearch
 from planning.search import optimal_plan
+from planning.task_stream import PersistentWorld
 
 
 HEURISTICS = {"lmcut": "lmcut of the current stage", "layered": "lmcut of the stage-layered relaxation",
@@ -82,21 +83,18 @@ class ClairvoyantOracle(Planner):
 
     def _chain(self, state: int, window: list) -> tuple[list, int | None]:
         """The first task's optimal plan and the cost of the myopic chain through the window."""
-        first, total = None, 0
+        world = PersistentWorld(self._model)
+        world.state = state
+        first = None
         for task in window:
-            if task.satisfied(state):           # completes at once, as in the persistent world
-                state = task.consume(state)
-                first = [] if first is None else first
+            if world.begin(task):               # already holds: completes at once
                 continue
-            r = optimal_plan(self._bm, state, task, hmax=self._hmax)
+            r = optimal_plan(self._bm, world.state, task, hmax=self._hmax)
             if r.plan is None:
                 return first or [], None
             first = r.plan if first is None else first
-            total += r.cost
-            for a in r.plan:
-                state = self._model.apply(state, a)
-            state = task.consume(state)
-        return first, total
+            world.execute(r.plan)
+        return first or [], sum(o.cost for o in world.outcomes)
 
     def summary(self, rows: list) -> dict:
         """The keys SPEC.md asks of this oracle: K, share_optimal, window times."""
