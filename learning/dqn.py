@@ -426,9 +426,9 @@ class Trainer:
         """Drop metrics rows written after the checkpoint resumed from: those steps run again."""
         if not self.metrics.is_file():
             return
+        step = lambda row: row.get("step", row.get("eval", {}).get("step", 0))
         keep = [line for line in self.metrics.read_text().splitlines()
-                if line.strip() and (json.loads(line).get("step", json.loads(line).get("eval", {}).get("step", 0))
-                                     <= self.step)]
+                if line.strip() and step(json.loads(line)) <= self.step]
         write_text(self.metrics, "".join(line + "\n" for line in keep))
 
 
