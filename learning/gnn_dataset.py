@@ -69,7 +69,7 @@ class DatasetConfig:
     n_prepared: int | None = None   # prepared states added when augmented (default 3 x n_states: 8,000 in all)
     seed: int = 0                   # seed of the myopic rollout; the prepared stream uses seed + 1
     workers: int = 2                # labelling processes
-    heuristic: str = "lmcut"        # of the labelling search (oracles.labelling.HEURISTICS)
+    heuristic: str = "pdb"          # of the labelling search (oracles.labelling.HEURISTICS)
     label_time_limit: float | None = None   # seconds per label (None: exact, however long)
     plan_time_limit: float = 120.0  # seconds per joint task + clause plan before falling back to the task alone
     min_clause_cost: int = 200      # a clause must cost at least this much (h_max) to count as preparation
@@ -441,7 +441,7 @@ def main() -> None:
     p.add_argument("--n-states", type=int, default=2000, help="faithful states (default: %(default)s)")
     p.add_argument("--n-prepared", type=int, default=None, help="prepared states (default: 3 x n-states)")
     p.add_argument("--workers", type=int, default=2, help="labelling processes (default: %(default)s)")
-    p.add_argument("--heuristic", default="lmcut", help="labelling search heuristic: blind, hmax, lmcut, lmcut-pc (default: %(default)s)")
+    p.add_argument("--heuristic", default="pdb", help="labelling search heuristic: pdb, lmcut, lmcut-pc, hmax, blind (default: %(default)s)")
     p.add_argument("--reuse-labels", action="append", default=[], metavar="DIR",
                    help="take the labels another gnn_dataset folder already computed (repeatable)")
     p.add_argument("--no-progress", action="store_true")

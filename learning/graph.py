@@ -91,12 +91,6 @@ def agent_relations(model, locations) -> set:
     return {p for p, ok in verdict.items() if ok}
 
 
-def layout_locations(model) -> list[str]:
-    """The locations of a layout: the objects its rooms list in domain.toml."""
-    rooms = model.config.get("layouts", {}).get(model.layout, {}).get("rooms", {})
-    return [o for r in rooms.values() for o in r]
-
-
 def position_predicates(model, locations) -> set:
     """Fluent unary predicates over locations only: the agent's position (robot-at)."""
     by_pred: dict[str, list] = {}
@@ -109,7 +103,7 @@ def position_predicates(model, locations) -> set:
 def agent_predicates(model) -> set:
     """The predicates that describe the agent itself rather than the world: 0-ary fluents
     (hand-free), its position (robot-at) and its relations to objects (holding)."""
-    locations = set(layout_locations(model))
+    locations = set(model.locations)
     return ({a[0] for a in model.atoms if len(a) == 1} | position_predicates(model, locations)
             | agent_relations(model, locations))
 
@@ -127,7 +121,7 @@ class GraphEncoder:
         if not rooms:
             raise DomainError(where, f"[layouts.{model.layout}] lists no rooms (the graph needs them)")
         fluent_objects = {o for a in model.atoms for o in a[1:]}
-        self.locations = [o for r in rooms.values() for o in r]
+        self.locations = model.locations
         for o in self.locations:
             if o not in model.objects:
                 raise DomainError(where, f"room entry '{o}' is not an object of layout {model.layout}")

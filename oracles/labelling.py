@@ -298,16 +298,7 @@ class MultiGoalSearch:
 
 
 # ---- the oracle --------------------------------------------------------------------------
-HEURISTICS = ("blind", "hmax", "lmcut", "lmcut-pc")
-
-
-def _lmcut_class():
-    """planning.lmcut.LMCut, or None where that module is not there yet."""
-    try:
-        from planning.lmcut import LMCut
-    except ImportError:
-        return None
-    return LMCut
+HEURISTICS = ("pdb", "lmcut", "lmcut-pc", "hmax", "blind")
 
 
 @dataclass
@@ -331,40 +322,44 @@ class Label:
 class Labeller:
     """C_AP(s) = sum_tau P(tau) C*_tau(s) over every task instantiation of a layout, by one multi-goal search.
 
-    heuristic: "blind" (Dijkstra), "hmax" (min over the unsettled tasks of h_max),
-    "lmcut" (LM-cut of the unsettled tasks' goals joined by "or"; planning.lmcut), or
-    "lmcut-pc" (the same on the P^C compilation with the agent's atom pairs,
-    oracles.conjunctions: about half the states closed, each costlier; states that
-    break the mutexes it relies on are labelled with "lmcut").
+    heuristic: "pdb" (min over the unsettled tasks of their pattern databases,
+    planning.pdb; the default, for a layout whose rooms name its locations, else
+    "lmcut"), "lmcut" (LM-cut of the unsettled tasks' goals joined by "or";
+    planning.lmcut), "lmcut-pc" (the same on the P^C compilation with the agent's
+    atom pairs, oracles.conjunctions; states that break the mutexes it relies on
+    are labelled with "lmcut"), "hmax" (min over the unsettled tasks of h_max) or
+    "blind" (Dijkstra). All are admissible, so every label is the same exact one.
     """
 
-    def __init__(self, model, heuristic: str = "lmcut", time_limit: float | None = None, cache: bool = True,
+    def __init__(self, model, heuristic: str = "pdb", time_limit: float | None = None, cache: bool = True,
                  deepest_first: bool = False):
         if heuristic not in HEURISTICS:
             raise DomainError("--heuristic", f"'{heuristic}' is not one of {', '.join(HEURISTICS)}")
+        from planning.lmcut import LMCut
+        from planning.pdb import pattern_databases
+
         self.model, self.time_limit = model, time_limit
         self.bm = BatchedModel(model)
         self.goals = TaskGoals(self.bm, model.tasks)
         self.fallback = None
-        if heuristic == "blind":
-            h = Blind()
-        elif heuristic == "lmcut-pc" and _lmcut_class() is not None:
+        if heuristic == "pdb" and not model.locations:
+            heuristic = "lmcut"                 # patterns need to know the locations
+        if heuristic == "pdb":
+            h = pattern_databases(model, self.bm.n_words)
+            cache = False                       # a lookup: cheaper than the cache's own lookup
+        elif heuristic == "lmcut":
+            h = UnionGoal(self.goals, LMCut(model, self.bm), "lmcut")
+        elif heuristic == "lmcut-pc":
             from oracles.conjunctions import ConjunctionLMCut, MutexPairs, agent_pairs
 
             self.mutex = MutexPairs(model, [model.init] + [model.reset_state(seed) for seed in range(32)])
             pc = ConjunctionLMCut(model, self.bm, self.mutex, self.goals.literals, keep=agent_pairs(model))
             h = UnionGoal(self.goals, pc, "lmcut-pc")
             self.fallback = Labeller(model, "lmcut", time_limit, cache, deepest_first)
-        else:
+        elif heuristic == "hmax":
             h = MinHMax(self.goals)
-            lmcut = _lmcut_class() if heuristic == "lmcut" else None
-            if heuristic == "lmcut" and lmcut is None:
-                heuristic = "hmax"        # the LM-cut module is not there: h_max alone is exact too
-            elif heuristic == "lmcut-pc":
-                heuristic = "hmax"
-            elif lmcut is not None:
-                # LM-cut of the disjunction dominates the min of the h_max's: it replaces them
-                h = UnionGoal(self.goals, lmcut(self.model, self.bm, h.hmax), "lmcut")
+        else:
+            h = Blind()
         self.heuristic = heuristic
         if cache and heuristic != "blind":
             h = CachedHeuristic(h)
@@ -382,7 +377,7 @@ class Labeller:
         return Label(c_ap, r.costs, r.seconds, r.closed, r.complete)
 
 
-def c_ap(model, state: int, heuristic: str = "lmcut") -> float:
+def c_ap(model, state: int, heuristic: str = "pdb") -> float:
     """C_AP of one state (a convenience; build a Labeller to label many)."""
     return Labeller(model, heuristic).label(state).c_ap
 
@@ -471,7 +466,7 @@ def main() -> None:
     p = cli.parser(__doc__.splitlines()[0])
     p.add_argument("--state", default=None, help="a JSON list of true atoms or a PDDL problem file "
                                                  "(default: the layout's start state)")
-    p.add_argument("--heuristic", default="lmcut", choices=HEURISTICS, help="(default: %(default)s)")
+    p.add_argument("--heuristic", default="pdb", choices=HEURISTICS, help="(default: %(default)s)")
     p.add_argument("--time-limit", type=float, default=None, help="seconds for the search (default: none)")
     args = p.parse_args()
     model = compile_domain(args.domain, args.layout)

@@ -88,6 +88,12 @@ class Model:
     def n_actions(self) -> int:
         return len(self.actions)
 
+    @property
+    def locations(self) -> list[str]:
+        """The layout's locations: the objects its rooms list in domain.toml ([] if none)."""
+        rooms = self.config.get("layouts", {}).get(self.layout, {}).get("rooms", {})
+        return [o for r in rooms.values() for o in r]
+
     def state_from_atoms(self, atoms) -> int:
         """A state from atom texts '(at cup_0 shelf)' or keys; unknown atoms are an error."""
         s = 0

@@ -1,0 +1,370 @@
+"""Pattern databases: exact goal distances in projections of the model onto a few objects.
+
+Delete-relaxation heuristics (h_max, LM-cut) let the robot be everywhere it
+has been and carry everything at once, so they miss about half the cost of
+fetching and carrying with one hand. A projection keeps exactly what they miss
+for a few objects: the agent's own atoms (its position, a free hand: atoms
+whose arguments are all locations), and every fluent atom of the chosen objects
+(where each is, held or not, dirty, filled). Everything else is forgotten: a
+precondition on a forgotten atom is dropped, and a conditional effect whose
+condition mentions one may or may not fire. Every real transition maps to an
+abstract one, so the exact goal distance in the projection, computed once by
+Dijkstra backwards from the abstract goal states, is an admissible and
+consistent heuristic (Culberson & Schaeffer 1998; Edelkamp 2001).
+
+The patterns come from the task goals: each goal binding's objects, alone and
+with each object that shares a ground action with them (a cup with the jar
+that refills it, the water machine that fills it with coffee; a bowl and an
+apple with the knife). A task's estimate is the smallest over its bindings of
+the largest over that binding's patterns.
+
+Locations are the objects the domain folder lists under its layout's rooms;
+"objects" are the others that occur in a fluent atom some action, consumption
+or world reset changes. Abstract state spaces are explored from the initial and
+reset states by actions and task consumptions, so every state of the persistent
+world is in them; a state outside (e.g. hand-written) gets h = 0.
+"""
+from __future__ import annotations
+
+import itertools
+import time
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from .batched import BatchedModel
+from .errors import DomainError
+from .heuristics import INF_64
+from .levels import state_keys
+
+CHUNK = 1 << 14             # abstract states expanded per numpy call
+
+
+def _bits(mask: int) -> list[int]:
+    return [i for i in range(mask.bit_length()) if mask >> i & 1]
+
+
+@dataclass
+class _Ops:
+    """Abstract operators as (V, W) word arrays; `edge` says whether it is an action (else consumption)."""
+
+    pos: np.ndarray
+    neg: np.ndarray
+    add: np.ndarray
+    keep: np.ndarray
+    cost: np.ndarray
+    edge: np.ndarray
+
+
+class Projection:
+    """The model projected onto the agent's atoms and a set of objects: its reachable abstract states
+    (sorted keys and rows) and its transition graph, ready for goal distances."""
+
+    def __init__(self, model, bm: BatchedModel, objects: frozenset, atom_mask: int, seeds: np.ndarray,
+                 consumption: list, max_states: int):
+        self.objects = objects
+        self.mask = bm.pack([atom_mask])[0]
+        ops = _project_ops(model, bm, atom_mask, consumption)
+        self.keys, self.rows, src, dst, cost = _explore(bm, ops, seeds & self.mask, max_states)
+        self.size = len(self.keys)
+        if self.size:
+            # One edge per (source, target), its cheapest action, reversed for backward Dijkstra.
+            pair = dst * self.size + src
+            order = np.argsort(pair, kind="stable")
+            pair, cost = pair[order], cost[order]
+            first = np.flatnonzero(np.r_[True, pair[1:] != pair[:-1]])
+            cost = np.minimum.reduceat(cost, first) if len(first) else cost
+            pair = pair[first]
+            weight = np.where(cost > 0, cost, 1e-9).astype(float)       # a zero-cost action stays an edge
+            indptr = np.searchsorted(pair // self.size, np.arange(self.size + 1))
+            self._backward = csr_matrix((weight, pair % self.size, indptr), shape=(self.size, self.size))
+        self.exhausted = self.size <= max_states
+
+    def index(self, batch: np.ndarray) -> np.ndarray:
+        """(N,) abstract state of each packed state; `size` for one outside the explored space."""
+        proj = batch & self.mask
+        keys = state_keys(proj)
+        pos = np.minimum(np.searchsorted(self.keys, keys), self.size - 1)
+        hit = (self.keys[pos] == keys) & (self.rows[pos] == proj).all(1)
+        return np.where(hit, pos, self.size)
+
+    def distances(self, goal: list) -> np.ndarray:
+        """(size + 1,) int64 cost from each abstract state to the nearest abstract goal state
+        (INF_64: none reachable); the extra last entry, 0, answers states outside the space.
+        `goal`: (pos, neg) packed words of each conjunction, a disjunction."""
+        hold = np.zeros(self.size, dtype=bool)
+        for pos, neg in goal:
+            pos, neg = pos & self.mask, neg & self.mask
+            hold |= ((self.rows & pos) == pos).all(1) & ((self.rows & neg) == 0).all(1)
+        out = np.full(self.size + 1, INF_64, dtype=np.int64)
+        out[-1] = 0
+        goals = np.flatnonzero(hold)
+        if len(goals):
+            d = dijkstra(self._backward, directed=True, indices=goals, min_only=True)
+            ok = np.isfinite(d)
+            out[:-1][ok] = np.floor(d[ok] + 1e-6).astype(np.int64)
+        return out
+
+
+def _project_ops(model, bm, atom_mask: int, consumption: list) -> _Ops:
+    """Every action variant and task consumption, restricted to the pattern's atoms.
+
+    A conditional effect gives two operators: it fires (its condition's kept
+    literals join the precondition) or it does not (if its condition is one kept
+    literal, that literal's negation joins the precondition; otherwise nothing is
+    known and both operators stay, an over-approximation)."""
+    rows = []     # (pos, neg, add, dele, cost, is action)
+    sources = [(op, model.action_cost[a], True) for op, a in zip(model.ops, model.op_action)]
+    sources += [(op, 0, False) for op in consumption]
+    for op, cost, is_action in sources:
+        base = (op.pos & atom_mask, op.neg & atom_mask, op.add & atom_mask, op.dele & atom_mask)
+        for fired in itertools.product((False, True), repeat=len(op.cond)):
+            p, n, a_, d_ = base
+            for (cp, cn, ca, cd), f in zip(op.cond, fired):
+                if f:
+                    p, n, a_, d_ = p | (cp & atom_mask), n | (cn & atom_mask), a_ | (ca & atom_mask), d_ | (cd & atom_mask)
+                elif not (cp | cn) & ~atom_mask and len(_bits(cp)) + len(_bits(cn)) == 1:
+                    p, n = p | cn, n | cp
+            if not p & n and (a_ & ~p or d_ & ~n or not is_action):
+                rows.append((p, n, a_, d_, cost, is_action))     # (an action changing nothing is a self-loop)
+    cheapest = {}
+    for r in rows:                                  # projections of different actions often coincide
+        if r[:4] + (r[5],) not in cheapest or r[4] < cheapest[r[:4] + (r[5],)][4]:
+            cheapest[r[:4] + (r[5],)] = r
+    rows = list(cheapest.values())
+    pack = lambda col: bm.pack([r[col] for r in rows])
+    return _Ops(pack(0), pack(1), pack(2), ~pack(3), np.array([r[4] for r in rows], dtype=np.int64),
+                np.array([r[5] for r in rows], dtype=bool))
+
+
+def _explore(bm, ops: _Ops, seeds: np.ndarray, max_states: int):
+    """Breadth-first exploration of the abstract space from its seeds: (sorted keys, their rows,
+    edge sources, edge targets, edge costs) with states numbered in key order; edges are the
+    actions' only (consumption only makes states reachable). States are deduplicated by 64-bit
+    key and every key match is checked against the stored row (a collision raises)."""
+    W = bm.n_words
+    rows = np.unique(seeds, axis=0)
+    keys = state_keys(rows)
+    by_key = np.argsort(keys, kind="stable")                 # ids in key order
+    sorted_keys = keys[by_key]
+    blocks, key_blocks = [rows], [keys]
+    src, dst_keys, costs = [], [], []
+    lo_id, frontier = 0, rows
+    while len(frontier) and len(sorted_keys) <= max_states:
+        children, child_keys = [], []
+        for lo in range(0, len(frontier), CHUNK):
+            part = frontier[lo: lo + CHUNK]
+            viol = np.zeros((len(part), len(ops.cost)), dtype=np.uint64)
+            for w in range(W):
+                s = part[:, w, None]
+                viol |= ~s & ops.pos[None, :, w]
+                viol |= s & ops.neg[None, :, w]
+            r, v = np.nonzero(viol == 0)
+            child = (part[r] & ops.keep[v]) | ops.add[v]
+            ck = state_keys(child)
+            act = ops.edge[v]
+            src.append(lo_id + lo + r[act])
+            dst_keys.append(ck[act])
+            costs.append(ops.cost[v[act]])
+            children.append(child)
+            child_keys.append(ck)
+        child, ck = np.concatenate(children), np.concatenate(child_keys)
+        ck, first, back = np.unique(ck, return_index=True, return_inverse=True)
+        if (child[first][back.ravel()] != child).any():
+            raise RuntimeError("two abstract states share a 64-bit key")
+        child = child[first]
+        pos = np.minimum(np.searchsorted(sorted_keys, ck), len(sorted_keys) - 1)
+        seen = sorted_keys[pos] == ck
+        known_rows = np.concatenate(blocks)
+        if (known_rows[by_key[pos[seen]]] != child[seen]).any():
+            raise RuntimeError("two abstract states share a 64-bit key")
+        lo_id = len(known_rows)
+        frontier, fk = child[~seen], ck[~seen]
+        blocks.append(frontier)
+        key_blocks.append(fk)
+        keys = np.concatenate(key_blocks)
+        by_key = np.argsort(keys, kind="stable")
+        sorted_keys = keys[by_key]
+    rows = np.concatenate(blocks)
+    rank = np.empty(len(by_key), dtype=np.int64)
+    rank[by_key] = np.arange(len(by_key))                    # id -> position in key order
+    src = np.concatenate(src) if src else np.zeros(0, dtype=np.int64)
+    dst_keys = np.concatenate(dst_keys) if dst_keys else np.zeros(0, dtype=np.uint64)
+    cost = np.concatenate(costs) if costs else np.zeros(0, dtype=np.int64)
+    dst = np.minimum(np.searchsorted(sorted_keys, dst_keys), len(sorted_keys) - 1)
+    inside = sorted_keys[dst] == dst_keys                   # targets of the last, unexpanded level
+    return sorted_keys, rows[by_key], rank[src[inside]], dst[inside], cost[inside]
+
+
+class PatternDatabases:
+    """Per-task admissible estimates from projections onto each goal binding's objects and their neighbours.
+
+    `per_task(batch)` -> (N, T) int64: for every task of the model, the smallest over its goal
+    bindings of the largest distance over that binding's patterns (INF_64: a dead end).
+    """
+
+    name = "pdb"
+
+    def __init__(self, model, bm: BatchedModel | None = None, tasks=None, max_states: int = 200_000,
+                 max_objects: int = 3):
+        t0 = time.perf_counter()
+        self.model = model
+        self.bm = bm or BatchedModel(model)
+        self.tasks = list(model.tasks.tasks if tasks is None else tasks)
+        locations = set(model.locations)
+        if not locations:
+            raise DomainError(model.files["config"], f"[layouts.{model.layout}] lists no rooms: "
+                                                     "pattern databases need to know the locations")
+        consumption = [op for t in model.tasks.tasks for op in t.bindings]
+        changed = 0
+        for op in [*model.ops, *consumption]:
+            changed |= op.add | op.dele
+            for _, _, ca, cd in op.cond:
+                changed |= ca | cd
+        for choices, _ in model.resets:
+            for c in choices:
+                changed |= c
+        # Each atom's objects (its arguments that are not locations); an unchanging atom has none.
+        self.atom_objects = [frozenset(a[1:]) - locations if changed >> i & 1 else frozenset()
+                             for i, a in enumerate(model.atoms)]
+        self.objects = sorted(set().union(*self.atom_objects), key=model.objects.index)
+        # Objects that share a ground action are neighbours.
+        self.neighbours = {o: set() for o in self.objects}
+        for op in model.ops:
+            objs = set()
+            for i in _bits(op.pos | op.neg | op.add | op.dele):
+                objs |= self.atom_objects[i]
+            for o in objs:
+                self.neighbours[o] |= objs - {o}
+        self.seeds = self.bm.pack(_reset_states(model))
+        self._consumption = consumption
+        self._max_states = max_states
+        self.projections: dict[frozenset, Projection] = {}
+        # The patterns of each binding, then the distance table of each (binding, pattern).
+        # The patterns of each binding and the distance table of each (binding, pattern), stacked
+        # into one array (`tables[b]`: (projection, offset) pairs; a binding with none reads a 0).
+        self.tables, self._bindings_of, stacked = [], [], [np.zeros(1, dtype=np.int64)]
+        self._zero, size = 0, 1
+        for task in self.tasks:
+            self._bindings_of.append([])
+            for op in task.bindings:
+                goal = [(self.bm.pack([op.pos])[0], self.bm.pack([op.neg])[0])]
+                pairs = []
+                for p in filter(None, (self.projection(o) for o in self.patterns(op, max_objects))):
+                    stacked.append(p.distances(goal))
+                    pairs.append((p, size))
+                    size += len(stacked[-1])
+                self._bindings_of[-1].append(len(self.tables))
+                self.tables.append(pairs)
+        self._stacked = np.concatenate(stacked)
+        self._plans: dict = {}
+        self.seconds = time.perf_counter() - t0
+
+    def goal_objects(self, op) -> frozenset:
+        out = frozenset()
+        for i in _bits(op.pos | op.neg):
+            out |= self.atom_objects[i]
+        return out
+
+    def patterns(self, op, max_objects: int) -> list[frozenset]:
+        """A binding's object sets: its goal's objects with each neighbour (or, for a goal over
+        more than `max_objects` objects, each object on its own)."""
+        base = self.goal_objects(op)
+        if len(base) >= max_objects:
+            return [frozenset([o]) for o in sorted(base, key=self.model.objects.index)]
+        near = set().union(*(self.neighbours[o] for o in base)) - base if base else set()
+        return [base | {x} for x in sorted(near, key=self.model.objects.index)] or [base]
+
+    def projection(self, objects: frozenset) -> Projection | None:
+        """The projection onto these objects (built once; None if it has more than max_states states)."""
+        if objects not in self.projections:
+            mask = 0
+            for i, objs in enumerate(self.atom_objects):
+                if objs <= objects:
+                    mask |= 1 << i
+            # Whatever decides whether a conditional effect on the pattern fires is kept too
+            # (pouring restores the machine's water only from a vessel that holds water).
+            for op in self.model.ops:
+                for cp, cn, ca, cd in op.cond:
+                    if (ca | cd) & mask:
+                        mask |= op.pos | op.neg | cp | cn
+            p = Projection(self.model, self.bm, objects, mask, self.seeds, self._consumption, self._max_states)
+            self.projections[objects] = p if p.exhausted else None
+        return self.projections[objects]
+
+    def per_task(self, batch: np.ndarray, tasks: np.ndarray | None = None) -> np.ndarray:
+        """(N, T') int64 admissible cost of each of `tasks` (default: all) from each state
+        (INF_64: a dead end), in one gather over the stacked distance tables."""
+        if tasks is None:
+            tasks = np.arange(len(self.tasks))
+        key = np.asarray(tasks, dtype=np.int64).tobytes()
+        if key not in self._plans:
+            self._plans[key] = self._plan(tasks)
+        projections, column, offset, binding_starts, task_starts = self._plans[key]
+        idx = np.stack([p.index(batch) for p in projections], axis=1)       # (N, projections)
+        d = self._stacked[offset + idx[:, column]]                           # (N, pairs)
+        return np.minimum.reduceat(np.maximum.reduceat(d, binding_starts, axis=1), task_starts, axis=1)
+
+    def _plan(self, tasks) -> tuple:
+        """Which projections, table offsets and reduce boundaries answer a set of tasks."""
+        projections, where, column, offset, binding_starts, task_starts = [], {}, [], [], [], []
+        for t in tasks:
+            task_starts.append(len(binding_starts))
+            for b in self._bindings_of[t]:
+                binding_starts.append(len(column))
+                for p, off in self.tables[b] or [(None, self._zero)]:
+                    if p is None:
+                        column.append(0)
+                        offset.append(off)
+                        continue
+                    if p.objects not in where:
+                        where[p.objects] = len(projections)
+                        projections.append(p)
+                    column.append(where[p.objects])
+                    offset.append(off)
+        if not projections:                   # no pattern at all: one dummy column of zeros
+            projections = [_Nowhere()]
+        return (projections, np.array(column), np.array(offset, dtype=np.int64),
+                np.array(binding_starts), np.array(task_starts))
+
+    def __call__(self, batch: np.ndarray, unsettled: np.ndarray) -> np.ndarray:
+        """min over the unsettled tasks: the labelling search's heuristic contract."""
+        if not len(batch):
+            return np.zeros(0, dtype=np.int64)
+        return self.per_task(batch, np.flatnonzero(unsettled)).min(1)
+
+
+class _Nowhere:
+    """Stands for a projection when a task set has none: every state maps to index 0."""
+
+    objects = frozenset()
+
+    @staticmethod
+    def index(batch):
+        return np.zeros(len(batch), dtype=np.int64)
+
+
+@lru_cache(maxsize=8)
+def pattern_databases(model, n_words: int) -> PatternDatabases:
+    """The pattern databases of a compiled layout for packed states of n_words words, built once
+    per process (every search over the layout shares them)."""
+    bm = BatchedModel(model, extra_bits=n_words * 64 - model.n_atoms)
+    return PatternDatabases(model, bm)
+
+
+def _reset_states(model, limit: int = 4096) -> list[int]:
+    """The initial state and every combination of the world-reset choices (up to `limit`)."""
+    states = {model.init}
+    combos = itertools.product(*[choices for choices, _ in model.resets])
+    for combo in itertools.islice(combos, limit):
+        s = model.init
+        for (choices, _), c in zip(model.resets, combo):
+            every = 0
+            for x in choices:
+                every |= x
+            s = (s & ~every) | c
+        states.add(s)
+    return sorted(states)
