@@ -14,7 +14,6 @@ from planning import cli
 from planning.atomic import write_json
 from planning.batched import BatchedModel
 from planning.compiler import compile_domain
-from planning.heuristics import HMax
 from planning.search import optimal_plan
 from planning.task_stream import PersistentWorld, draw_tasks
 
@@ -25,7 +24,6 @@ def main() -> None:
     args = p.parse_args()
     model = compile_domain(args.domain, args.layout)
     bm = BatchedModel(model)
-    hmax = HMax(model, bm)
     world = PersistentWorld(model, reset_seed=args.seed)
     print(f"{model.name} {model.layout}: {model.n_atoms} atoms, {model.n_actions} ground actions, "
           f"{len(model.tasks)} task instances; seed {args.seed}\n")
@@ -36,7 +34,7 @@ def main() -> None:
         if world.begin(task):
             plan_text = "(already satisfied)"
         else:
-            result = optimal_plan(bm, world.state, task, hmax=hmax)
+            result = optimal_plan(bm, world.state, task)
             if result.plan is None:
                 world.abandon()
                 plan_text = "(no plan)"

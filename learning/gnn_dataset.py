@@ -242,11 +242,11 @@ def _plan_prepared(model, bm, hmax, library, state, task, draw, cfg, optimal_pla
     if eligible:
         k = eligible[draw % len(eligible)]
         pos, neg = library.masks[k]
-        r = optimal_plan(bm, state, JointGoal(task, pos, neg), time_limit=cfg.plan_time_limit, hmax=hmax)
+        r = optimal_plan(bm, state, JointGoal(task, pos, neg), time_limit=cfg.plan_time_limit)
         if r.plan is not None:
             plan, row["clause"] = r.plan, library.text(k)
     if plan is None:
-        r = optimal_plan(bm, state, task, hmax=hmax)
+        r = optimal_plan(bm, state, task)
         plan = r.plan or []
     row["plan"] = [model.actions[a] for a in plan]
     return row, plan

@@ -25,20 +25,20 @@ from experiments.agents import Planner, Reply
 from planning import cli
 from planning.batched import BatchedModel
 from planning.compiler import compile_domain
-from planning.heuristics import HMax
 from planning.joint import JointSearch
 from planning.search import optimal_plan
 from planning.task_stream import PersistentWorld
 
 
-HEURISTICS = {"lmcut": "lmcut of the current stage", "layered": "lmcut of the stage-layered relaxation",
-              "hmax": "hmax of the current stage"}
+HEURISTICS = {"pdb": "max(lmcut of the stage-layered relaxation, pattern databases of the current stage)",
+              "layered": "lmcut of the stage-layered relaxation",
+              "lmcut": "lmcut of the current stage", "hmax": "hmax of the current stage"}
 
 
 class ClairvoyantOracle(Planner):
     """Optimal joint plans over a sliding window of K revealed tasks."""
 
-    def __init__(self, K: int, time_limit: float = 600.0, heuristic: str = "layered", log: str | None = None):
+    def __init__(self, K: int, time_limit: float = 600.0, heuristic: str = "pdb", log: str | None = None):
         """`heuristic`: the joint search's (see JointSearch.plan); `log`: a JSON-lines file of windows."""
         if K < 1:
             raise ValueError("K must be at least 1")
@@ -58,14 +58,13 @@ class ClairvoyantOracle(Planner):
         if model is not self._model:
             self._model = model
             self._bm = BatchedModel(model)
-            self._hmax = HMax(model, self._bm)
             self._joint = JointSearch(model, max_window=self.K)
 
     def plan(self, state: int, task, upcoming: list) -> Reply:
         window = [task] + list(upcoming[: self.K - 1])
         t0 = time.perf_counter()
         if len(window) == 1:
-            r = optimal_plan(self._bm, state, task, time_limit=self.time_limit, hmax=self._hmax)
+            r = optimal_plan(self._bm, state, task, time_limit=self.time_limit)
         else:
             r = self._joint.plan(state, window, time_limit=self.time_limit, heuristic=self.heuristic)
         info = {"window": [t.name for t in window], "window_cost": r.cost, "lower_bound": r.lower_bound,
@@ -89,7 +88,7 @@ class ClairvoyantOracle(Planner):
         for task in window:
             if world.begin(task):               # already holds: completes at once
                 continue
-            r = optimal_plan(self._bm, world.state, task, hmax=self._hmax)
+            r = optimal_plan(self._bm, world.state, task)
             if r.plan is None:
                 return first or [], None
             first = r.plan if first is None else first
@@ -116,7 +115,7 @@ def main() -> None:
     p = cli.parser(__doc__.splitlines()[0], sequences=True)
     p.add_argument("--K", type=int, default=3, help="tasks planned jointly (default: %(default)s)")
     p.add_argument("--time-limit", type=float, default=600.0, help="seconds per window (default 600)")
-    p.add_argument("--heuristic", default="layered", choices=list(HEURISTICS),
+    p.add_argument("--heuristic", default="pdb", choices=list(HEURISTICS),
                    help="joint search heuristic (default: %(default)s)")
     args = p.parse_args()
     model = compile_domain(args.domain, args.layout)

@@ -18,7 +18,6 @@ from planning import cli
 from planning import fast_downward as fd
 from planning.batched import BatchedModel
 from planning.compiler import compile_domain
-from planning.heuristics import HMax
 from planning.search import optimal_plan
 from planning.task_stream import PersistentWorld, TaskStream
 
@@ -39,14 +38,13 @@ class MyopicOracle(Planner):
     def start(self, model, sequence) -> None:
         if model is not self._model:
             self._model, self._bm = model, BatchedModel(model)
-            self._hmax = HMax(model, self._bm)
 
     def plan(self, state: int, task, upcoming: list) -> Reply:
         if self.planner == "fast-downward":
             r = fd.solve(self._model, state, task, self.time_limit)
             info = {"status": r.status.value, "planner_cost": r.cost, "expansions": r.expansions}
             return Reply(r.plan if r.status == fd.Status.SOLVED else None, info)
-        r = optimal_plan(self._bm, state, task, time_limit=self.time_limit, hmax=self._hmax)
+        r = optimal_plan(self._bm, state, task, time_limit=self.time_limit)
         status = "solved" if r.plan is not None else ("unsolvable" if r.complete else "out-of-time")
         return Reply(r.plan, {"status": status, "planner_cost": r.cost, "expansions": r.expansions})
 

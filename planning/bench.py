@@ -127,7 +127,7 @@ def planner_pairs(model, sequence_id: int, n: int) -> list:
         if world.begin(task):
             continue
         pairs.append((world.state, task))
-        for a in optimal_plan(bm, world.state, task, hmax=hmax).plan:
+        for a in optimal_plan(bm, world.state, task).plan:
             world.act(a)
         if len(pairs) >= n:
             break
@@ -146,7 +146,7 @@ def benchmark_planner(model, sequence_id: int = 0, n: int = 20, time_limit: floa
     rows = []
     for state, task in pairs:
         t0 = time.perf_counter()
-        ours = optimal_plan(bm, state, task, hmax=hmax)
+        ours = optimal_plan(bm, state, task)
         t_ours = time.perf_counter() - t0
         theirs = fd.solve(model, state, task, time_limit)
         if ours.cost != theirs.cost:

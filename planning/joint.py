@@ -24,6 +24,7 @@ from .errors import DomainError
 from .heuristics import INF_64, HMax, goal_literals
 from .levels import CostLevels
 from .lmcut import LMCut, Relaxed, compile_relaxed
+from .pdb import pattern_databases
 from .search import SearchResult
 
 
@@ -83,16 +84,21 @@ class JointSearch:
         return self._relaxed[key]
 
     def plan(self, state: int, tasks: list, max_states: int | None = None,
-             time_limit: float | None = None, heuristic: str = "layered", weight: int = 1) -> SearchResult:
+             time_limit: float | None = None, heuristic: str = "pdb", weight: int = 1) -> SearchResult:
         """An optimal plan that completes the tasks in order from a world state.
 
-        heuristic: "layered" (LM-cut of the stages left), "lmcut" or "hmax" (of the current stage).
+        heuristic: "pdb" (the larger of "layered" and the current task's pattern databases,
+        planning.pdb, which see the round trips and the one hand that relaxations miss),
+        "layered" (LM-cut of the stages left), "lmcut" or "hmax" (of the current stage).
         weight > 1: weighted A* (f = g + weight * h), a plan at most `weight` times the optimal
         cost; lower_bound is then the last f-level / weight. With weight 1 an interrupted
         search still proves lower_bound <= the optimal cost (the clairvoyant's bounded windows).
         """
-        if heuristic not in ("layered", "lmcut", "hmax"):
-            raise DomainError(heuristic, "unknown joint heuristic, choose layered, lmcut or hmax")
+        if heuristic not in ("pdb", "layered", "lmcut", "hmax"):
+            raise DomainError(heuristic, "unknown joint heuristic, choose pdb, layered, lmcut or hmax")
+        if heuristic == "pdb" and not self.model.locations:
+            heuristic = "layered"                   # patterns need to know the locations
+        pdb = pattern_databases(self.model, self.bm.n_words) if heuristic == "pdb" else None
         K = len(tasks)
         if K > self.max_window:
             raise ValueError(f"window of {K} tasks, built for at most {self.max_window}")
@@ -106,8 +112,10 @@ class JointSearch:
                 sel = stage == k
                 if not sel.any():
                     continue
-                if heuristic == "layered":
+                if heuristic in ("layered", "pdb"):
                     out[sel] = self.lmcut.of_relaxed(batch[sel], self.relaxation(tasks, k))
+                    if pdb is not None:
+                        out[sel] = np.maximum(out[sel], pdb.per_task(batch[sel], [tasks[k].index])[:, 0])
                 else:
                     out[sel] = (self.lmcut if heuristic == "lmcut" else self.hmax)(batch[sel], goals[k])
             return np.where(out >= INF_64, INF_64, out * weight)

@@ -242,26 +242,31 @@ class PatternDatabases:
         self.seeds = self.bm.pack(_reset_states(model))
         self._consumption = consumption
         self._max_states = max_states
+        self.max_objects = max_objects
         self.projections: dict[frozenset, Projection] = {}
-        # The patterns of each binding, then the distance table of each (binding, pattern).
-        # The patterns of each binding and the distance table of each (binding, pattern), stacked
-        # into one array (`tables[b]`: (projection, offset) pairs; a binding with none reads a 0).
-        self.tables, self._bindings_of, stacked = [], [], [np.zeros(1, dtype=np.int64)]
-        self._zero, size = 0, 1
-        for task in self.tasks:
-            self._bindings_of.append([])
-            for op in task.bindings:
-                goal = [(self.bm.pack([op.pos])[0], self.bm.pack([op.neg])[0])]
-                pairs = []
-                for p in filter(None, (self.projection(o) for o in self.patterns(op, max_objects))):
-                    stacked.append(p.distances(goal))
-                    pairs.append((p, size))
-                    size += len(stacked[-1])
-                self._bindings_of[-1].append(len(self.tables))
-                self.tables.append(pairs)
-        self._stacked = np.concatenate(stacked)
+        # The distance tables of each goal binding's patterns, stacked into one array; a binding
+        # maps to its (projection, offset) pairs (none: it reads the leading 0).
+        self._tables: dict[tuple, list] = {}
+        self._chunks, self._size, self._stacked = [np.zeros(1, dtype=np.int64)], 1, None
         self._plans: dict = {}
+        for task in self.tasks:
+            for op in task.bindings:
+                self.tables(op)
         self.seconds = time.perf_counter() - t0
+
+    def tables(self, op) -> list:
+        """(projection, offset into the stacked tables) per pattern of one goal binding (built once)."""
+        key = (op.pos, op.neg)
+        if key not in self._tables:
+            goal = [(self.bm.pack([op.pos])[0], self.bm.pack([op.neg])[0])]
+            pairs = []
+            for p in filter(None, (self.projection(o) for o in self.patterns(op, self.max_objects))):
+                self._chunks.append(p.distances(goal))
+                pairs.append((p, self._size))
+                self._size += len(self._chunks[-1])
+            self._tables[key] = pairs
+            self._stacked = None
+        return self._tables[key]
 
     def goal_objects(self, op) -> frozenset:
         out = frozenset()
@@ -295,56 +300,60 @@ class PatternDatabases:
             self.projections[objects] = p if p.exhausted else None
         return self.projections[objects]
 
-    def per_task(self, batch: np.ndarray, tasks: np.ndarray | None = None) -> np.ndarray:
-        """(N, T') int64 admissible cost of each of `tasks` (default: all) from each state
-        (INF_64: a dead end), in one gather over the stacked distance tables."""
-        if tasks is None:
-            tasks = np.arange(len(self.tasks))
-        key = np.asarray(tasks, dtype=np.int64).tobytes()
+    def per_task(self, batch: np.ndarray, tasks=None) -> np.ndarray:
+        """(N, T') int64 admissible cost of each of the model's `tasks` (indices; default all)."""
+        tasks = range(len(self.tasks)) if tasks is None else tasks
+        return self.per_goal(batch, [self.tasks[t] for t in tasks], key=("tasks", *tasks))
+
+    def per_goal(self, batch: np.ndarray, goals: list, key=None) -> np.ndarray:
+        """(N, G) int64 admissible cost of each goal (anything with `bindings`, a DNF of Ops: a task,
+        or a task with an extra clause) from each state (INF_64: a dead end), in one gather over the
+        stacked distance tables. `key` names the goal list for reuse of its gather plan."""
+        key = key if key is not None else tuple((o.pos, o.neg) for g in goals for o in g.bindings)
         if key not in self._plans:
-            self._plans[key] = self._plan(tasks)
-        projections, column, offset, binding_starts, task_starts = self._plans[key]
+            self._plans[key] = self._plan(goals)
+        if self._stacked is None:
+            self._stacked = np.concatenate(self._chunks)
+        projections, column, offset, binding_starts, goal_starts = self._plans[key]
         idx = np.stack([p.index(batch) for p in projections], axis=1)       # (N, projections)
         d = self._stacked[offset + idx[:, column]]                           # (N, pairs)
-        return np.minimum.reduceat(np.maximum.reduceat(d, binding_starts, axis=1), task_starts, axis=1)
+        return np.minimum.reduceat(np.maximum.reduceat(d, binding_starts, axis=1), goal_starts, axis=1)
 
-    def _plan(self, tasks) -> tuple:
-        """Which projections, table offsets and reduce boundaries answer a set of tasks."""
-        projections, where, column, offset, binding_starts, task_starts = [], {}, [], [], [], []
-        for t in tasks:
-            task_starts.append(len(binding_starts))
-            for b in self._bindings_of[t]:
+    def _plan(self, goals) -> tuple:
+        """Which projections, table offsets and reduce boundaries answer a list of goals."""
+        projections, where, column, offset, binding_starts, goal_starts = [], {}, [], [], [], []
+        for goal in goals:
+            goal_starts.append(len(binding_starts))
+            for op in goal.bindings:
                 binding_starts.append(len(column))
-                for p, off in self.tables[b] or [(None, self._zero)]:
-                    if p is None:
-                        column.append(0)
-                        offset.append(off)
-                        continue
+                for p, off in self.tables(op) or [(_NOWHERE, 0)]:
                     if p.objects not in where:
                         where[p.objects] = len(projections)
                         projections.append(p)
                     column.append(where[p.objects])
                     offset.append(off)
-        if not projections:                   # no pattern at all: one dummy column of zeros
-            projections = [_Nowhere()]
         return (projections, np.array(column), np.array(offset, dtype=np.int64),
-                np.array(binding_starts), np.array(task_starts))
+                np.array(binding_starts), np.array(goal_starts))
 
     def __call__(self, batch: np.ndarray, unsettled: np.ndarray) -> np.ndarray:
         """min over the unsettled tasks: the labelling search's heuristic contract."""
         if not len(batch):
             return np.zeros(0, dtype=np.int64)
-        return self.per_task(batch, np.flatnonzero(unsettled)).min(1)
+        tasks = np.flatnonzero(unsettled)
+        return self.per_goal(batch, [self.tasks[t] for t in tasks], key=unsettled.tobytes()).min(1)
 
 
 class _Nowhere:
-    """Stands for a projection when a task set has none: every state maps to index 0."""
+    """The projection of a binding without patterns: every state maps to the stacked tables' leading 0."""
 
-    objects = frozenset()
+    objects = None
 
     @staticmethod
     def index(batch):
         return np.zeros(len(batch), dtype=np.int64)
+
+
+_NOWHERE = _Nowhere()
 
 
 @lru_cache(maxsize=8)

@@ -57,30 +57,20 @@ def uniform_cost_search(model, state: int, task, max_expansions: int | None = No
 
 
 def optimal_plan(bm, state: int, task, max_states: int | None = None,
-                 time_limit: float | None = None, hmax=None, heuristic: str = "lmcut") -> SearchResult:
-    """An optimal plan for one task: A* with LM-cut (or h_max), expanding each f-level in one numpy call.
+                 time_limit: float | None = None, heuristic: str = "pdb") -> SearchResult:
+    """An optimal plan for one task: A* by f-levels, expanding each level in one numpy call.
 
-    The same cost as uniform_cost_search, many times faster. plan is None if no
-    plan exists (complete=True) or a limit stopped the search (complete=False).
-    Pass `hmax` (an HMax or LMCut of the same model) to reuse its tables across calls.
+    heuristic: "pdb" (the layout's pattern databases, planning.pdb; LM-cut for a layout whose
+    rooms do not name its locations), "lmcut" or "hmax"; all admissible, so the cost is the
+    same as uniform_cost_search's, many times faster (the plan may be another of equal cost).
+    `task` is anything with `bindings` (a DNF of Ops), e.g. a task with an extra clause.
+    plan is None if no plan exists (complete=True) or a limit stopped the search (complete=False).
     """
-    from .heuristics import HMax, goal_literals
     from .levels import CostLevels, goal_arrays, satisfied
-    from .lmcut import LMCut
 
-    if heuristic not in HEURISTICS:
-        raise DomainError(heuristic, f"unknown heuristic, choose one of {', '.join(HEURISTICS)}")
-    if isinstance(hmax, LMCut):
-        lmcut, hmax = hmax, hmax.hmax
-    else:
-        hmax = hmax or HMax(bm.model, bm)
-        lmcut = _LMCUTS.get(hmax) if heuristic == "lmcut" else None
-        if heuristic == "lmcut" and lmcut is None:
-            lmcut = _LMCUTS[hmax] = LMCut(bm.model, bm, hmax)
-    h = lmcut if heuristic == "lmcut" else hmax
-    conjs = goal_literals(bm.model, task)
+    h = task_heuristic(bm, task, heuristic)
     pos, neg = goal_arrays(bm, task)
-    levels = CostLevels(bm, state, max_states, time_limit, heuristic=lambda b: h(b, conjs))
+    levels = CostLevels(bm, state, max_states, time_limit, heuristic=h)
     for _, rows, ids, g in levels:
         hit = np.flatnonzero(satisfied(rows, pos, neg))
         if len(hit):
@@ -89,5 +79,24 @@ def optimal_plan(bm, state: int, task, max_states: int | None = None,
     return SearchResult(None, None, levels.closed, levels.exhausted)
 
 
-HEURISTICS = ("lmcut", "hmax")
-_LMCUTS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()   # an LMCut per HMax passed in, tables shared
+HEURISTICS = ("pdb", "lmcut", "hmax")
+_RELAXED: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()   # per BatchedModel: its HMax and LMCut
+
+
+def task_heuristic(bm, task, heuristic: str = "pdb"):
+    """h(batch) -> (N,) admissible costs to the task's goal; the tables behind it are built once per model."""
+    from .heuristics import HMax, goal_literals
+    from .lmcut import LMCut
+    from .pdb import pattern_databases
+
+    if heuristic not in HEURISTICS:
+        raise DomainError(heuristic, f"unknown heuristic, choose one of {', '.join(HEURISTICS)}")
+    if heuristic == "pdb" and bm.model.locations:
+        pdb = pattern_databases(bm.model, bm.n_words)
+        return lambda batch: pdb.per_goal(batch, [task])[:, 0]
+    if bm not in _RELAXED:
+        hmax = HMax(bm.model, bm)
+        _RELAXED[bm] = {"hmax": hmax, "lmcut": LMCut(bm.model, bm, hmax)}
+    h = _RELAXED[bm]["hmax" if heuristic == "hmax" else "lmcut"]
+    conjs = goal_literals(bm.model, task)
+    return lambda batch: h(batch, conjs)

@@ -10,7 +10,6 @@ from oracles.labelling import Labeller, read_state
 from planning import fast_downward as fd
 from planning.errors import DomainError
 from planning.grounding import atom_text
-from planning.heuristics import HMax
 from planning.search import optimal_plan
 
 # Hops between the restaurant's locations (shared/restaurant.md); a move costs 25 x hops.
@@ -86,11 +85,10 @@ def test_three_room_start_by_hand(three_room, start_label):
 def test_costs_equal_single_task_optimal_plans(two_room):
     """Every task's settled cost equals the internal planner's optimum for that task alone."""
     lab = Labeller(two_room, "hmax")
-    hmax = HMax(two_room, lab.bm)
     state = two_room.apply(two_room.init, two_room.action("pick(cup_0, countertop)"))
     label = lab.label(state)
     for task, c in zip(two_room.tasks, label.costs):
-        assert c == optimal_plan(lab.bm, state, task, hmax=hmax).cost, task.name
+        assert c == optimal_plan(lab.bm, state, task).cost, task.name
 
 
 def test_costs_equal_fast_downward_sample(three_room, start_label):
@@ -170,11 +168,10 @@ def test_heuristics_agree_on_the_restaurant(two_room):
 def test_costs_equal_single_task_plans_on_random_states(two_room):
     """On states of random walks (machine water often used up), settled costs are single-task optima."""
     lab = Labeller(two_room, "lmcut")
-    hmax = HMax(two_room, lab.bm)
     for state in random_walk_states(two_room, 3, seed=5, walk=30)[::1]:
         label = lab.label(state)
         for task, c in zip(two_room.tasks, label.costs):
-            assert c == optimal_plan(lab.bm, state, task, hmax=hmax).cost, task.name
+            assert c == optimal_plan(lab.bm, state, task).cost, task.name
 
 
 def test_cache_and_tie_breaking_change_no_cost(two_room):

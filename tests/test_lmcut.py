@@ -109,7 +109,7 @@ def test_between_hmax_and_the_optimal_cost(two_room):
         if exact.plan is None:
             continue
         assert lm(bm.pack([states[i]]), goal_literals(two_room, task))[0] <= exact.cost
-        r = optimal_plan(bm, states[i], task, hmax=hm)
+        r = optimal_plan(bm, states[i], task, heuristic="lmcut")
         assert r.cost == exact.cost and r.expansions <= exact.expansions + 1
         compared += 1
     assert compared >= 5

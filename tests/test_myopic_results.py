@@ -11,7 +11,6 @@ from pathlib import Path
 import pytest
 
 from planning.batched import BatchedModel
-from planning.heuristics import HMax
 from planning.search import optimal_plan
 from planning.sequences import load
 from planning.task_stream import PersistentWorld
@@ -25,7 +24,6 @@ def replay(model, limit_per_sequence=None, sequences=None):
     data = json.loads(path.read_text())
     rows = {(r["sequence"], r["index"]): r for r in data["per_task"]}
     bm = BatchedModel(model)
-    hmax = HMax(model, bm)
     checked = 0
     for seq in load(model, sequences):
         world = PersistentWorld(model, seq.reset_seed)
@@ -36,7 +34,7 @@ def replay(model, limit_per_sequence=None, sequences=None):
                 assert row["auto"] and row["cost"] == 0
                 continue
             if limit_per_sequence is None or planned < limit_per_sequence:
-                assert optimal_plan(bm, world.state, task, hmax=hmax).cost == row["planner_cost"], row["task"]
+                assert optimal_plan(bm, world.state, task).cost == row["planner_cost"], row["task"]
                 checked += 1
             planned += 1
             for name in row["plan"]:
