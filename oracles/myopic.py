@@ -32,7 +32,7 @@ class MyopicOracle(Planner):
             raise ValueError(f"unknown planner {planner}")
         self.planner, self.time_limit = planner, time_limit
         self.config = {"planner": planner, "time_limit": time_limit,
-                       "search": fd.OPTIMAL_CONFIG if planner == "fast-downward" else "astar(lmcut) by f-levels"}
+                       "search": fd.OPTIMAL_CONFIG if planner == "fast-downward" else "astar(pdb) by f-levels"}
         self._model = None
 
     def start(self, model, sequence) -> None:
