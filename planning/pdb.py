@@ -67,6 +67,7 @@ class Projection:
                  consumption: list, max_states: int):
         self.objects = objects
         self.mask = bm.pack([atom_mask])[0]
+        self._model, self._bm, self._atom_mask = model, bm, atom_mask
         ops = _project_ops(model, bm, atom_mask, consumption)
         self.keys, self.rows, src, dst, cost = _explore(bm, ops, seeds & self.mask, max_states)
         self.size = len(self.keys)
@@ -99,17 +100,47 @@ class Projection:
         for pos, neg in goal:
             pos, neg = pos & self.mask, neg & self.mask
             hold |= ((self.rows & pos) == pos).all(1) & ((self.rows & neg) == 0).all(1)
+        return self._backward_from(np.where(hold, 0, INF_64))
+
+    def window_distances(self, tasks: list) -> list[np.ndarray]:
+        """[(size + 1,) int64 per stage k]: the cost from each abstract state to complete tasks k, k+1, ...
+        in order, where completing a task moves on through its (projected) consumption. Backwards
+        from the last task: stage k starts at the goal states of task k with the cost-to-go of
+        stage k + 1 from where the consumption leads."""
+        after = np.zeros(self.size + 1, dtype=np.int64)
+        out = [after]
+        for task in reversed(tasks):
+            start = np.full(self.size, INF_64, dtype=np.int64)
+            done = _project_ops(self._model, self._bm, self._atom_mask, list(task.bindings), actions=False)
+            for v in range(len(done.cost)):
+                ok = np.flatnonzero(((self.rows & done.pos[v]) == done.pos[v]).all(1)
+                                    & ((self.rows & done.neg[v]) == 0).all(1))
+                nxt = (self.rows[ok] & done.keep[v]) | done.add[v]
+                start[ok] = np.minimum(start[ok], after[self.index(nxt)])
+            after = self._backward_from(start)
+            out.append(after)
+        return out[::-1]
+
+    def _backward_from(self, start: np.ndarray) -> np.ndarray:
+        """(size + 1,) int64: min over abstract states t of start[t] + the cost from each state to t
+        (Dijkstra on the reversed graph from a source joined to each t by an edge of cost start[t])."""
         out = np.full(self.size + 1, INF_64, dtype=np.int64)
         out[-1] = 0
-        goals = np.flatnonzero(hold)
-        if len(goals):
-            d = dijkstra(self._backward, directed=True, indices=goals, min_only=True)
-            ok = np.isfinite(d)
-            out[:-1][ok] = np.floor(d[ok] + 1e-6).astype(np.int64)
+        src = np.flatnonzero(start < INF_64)
+        if not len(src):
+            return out
+        n = self.size
+        g = self._backward
+        weight = np.where(start[src] > 0, start[src], 1e-9).astype(float)
+        graph = csr_matrix((np.r_[g.data, weight], np.r_[g.indices, src], np.r_[g.indptr, g.indptr[-1] + len(src)]),
+                           shape=(n + 1, n + 1))
+        d = dijkstra(graph, directed=True, indices=n)[:n]
+        ok = np.isfinite(d)
+        out[:-1][ok] = np.floor(d[ok] + 1e-6).astype(np.int64)
         return out
 
 
-def _project_ops(model, bm, atom_mask: int, consumption: list) -> _Ops:
+def _project_ops(model, bm, atom_mask: int, consumption: list, actions: bool = True) -> _Ops:
     """Every action variant and task consumption, restricted to the pattern's atoms.
 
     A conditional effect gives two operators: it fires (its condition's kept
@@ -117,7 +148,7 @@ def _project_ops(model, bm, atom_mask: int, consumption: list) -> _Ops:
     literal, that literal's negation joins the precondition; otherwise nothing is
     known and both operators stay, an over-approximation)."""
     rows = []     # (pos, neg, add, dele, cost, is action)
-    sources = [(op, model.action_cost[a], True) for op, a in zip(model.ops, model.op_action)]
+    sources = [(op, model.action_cost[a], True) for op, a in zip(model.ops, model.op_action)] if actions else []
     sources += [(op, 0, False) for op in consumption]
     for op, cost, is_action in sources:
         base = (op.pos & atom_mask, op.neg & atom_mask, op.add & atom_mask, op.dele & atom_mask)
@@ -243,12 +274,13 @@ class PatternDatabases:
         self._consumption = consumption
         self._max_states = max_states
         self.max_objects = max_objects
-        self.projections: dict[frozenset, Projection] = {}
+        self.projections: dict[frozenset, tuple] = {}     # objects -> (projection or None, budget tried)
         # The distance tables of each goal binding's patterns, stacked into one array; a binding
         # maps to its (projection, offset) pairs (none: it reads the leading 0).
         self._tables: dict[tuple, list] = {}
         self._chunks, self._size, self._stacked = [np.zeros(1, dtype=np.int64)], 1, None
         self._plans: dict = {}
+        self._windows: dict = {}
         for task in self.tasks:
             for op in task.bindings:
                 self.tables(op)
@@ -283,9 +315,11 @@ class PatternDatabases:
         near = set().union(*(self.neighbours[o] for o in base)) - base if base else set()
         return [base | {x} for x in sorted(near, key=self.model.objects.index)] or [base]
 
-    def projection(self, objects: frozenset) -> Projection | None:
+    def projection(self, objects: frozenset, max_states: int | None = None) -> Projection | None:
         """The projection onto these objects (built once; None if it has more than max_states states)."""
-        if objects not in self.projections:
+        budget = max_states or self._max_states
+        p, tried = self.projections.get(objects, (None, 0))
+        if p is None and tried < budget:
             mask = 0
             for i, objs in enumerate(self.atom_objects):
                 if objs <= objects:
@@ -296,9 +330,29 @@ class PatternDatabases:
                 for cp, cn, ca, cd in op.cond:
                     if (ca | cd) & mask:
                         mask |= op.pos | op.neg | cp | cn
-            p = Projection(self.model, self.bm, objects, mask, self.seeds, self._consumption, self._max_states)
-            self.projections[objects] = p if p.exhausted else None
-        return self.projections[objects]
+            p = Projection(self.model, self.bm, objects, mask, self.seeds, self._consumption, budget)
+            p = p if p.exhausted else None
+            self.projections[objects] = (p, budget)
+        return p if p is not None and p.size <= budget else None
+
+    def window(self, tasks: list, max_states: int = 1_000_000) -> list:
+        """[(projection, [(size + 1,) cost-to-go per stage])] for completing `tasks` in order (a
+        clairvoyant window from its current stage on). The pattern holds the goal objects of as
+        many leading tasks as fit in max_states abstract states, alone and with each neighbour;
+        the tasks after those are not counted (cost >= 0)."""
+        key = tuple(t.index for t in tasks)
+        if key not in self._windows:
+            base, covered = frozenset(), 0
+            for task in tasks:
+                objs = base.union(*(self.goal_objects(op) for op in task.bindings))
+                if self.projection(objs, max_states) is None:
+                    break
+                base, covered = objs, covered + 1
+            sets = [base] + [base | {x} for x in sorted(set().union(*(self.neighbours[o] for o in base)) - base,
+                                                         key=self.model.objects.index)] if covered else []
+            found = [p for p in (self.projection(o, max_states) for o in sets) if p is not None]
+            self._windows[key] = [(p, p.window_distances(tasks[:covered])) for p in found]
+        return self._windows[key]
 
     def per_task(self, batch: np.ndarray, tasks=None) -> np.ndarray:
         """(N, T') int64 admissible cost of each of the model's `tasks` (indices; default all)."""
