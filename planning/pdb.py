@@ -64,11 +64,12 @@ class Projection:
     (sorted keys and rows) and its transition graph, ready for goal distances."""
 
     def __init__(self, model, bm: BatchedModel, objects: frozenset, atom_mask: int, seeds: np.ndarray,
-                 consumption: list, max_states: int):
+                 consumption: list, max_states: int, costs: list | None = None):
+        """`costs`: per ground action, in place of the model's (a cost partitioning's share)."""
         self.objects = objects
         self.mask = bm.pack([atom_mask])[0]
         self._model, self._bm, self._atom_mask = model, bm, atom_mask
-        ops = _project_ops(model, bm, atom_mask, consumption)
+        ops = _project_ops(model, bm, atom_mask, consumption, costs=costs)
         self.keys, self.rows, src, dst, cost = _explore(bm, ops, seeds & self.mask, max_states)
         self.size = len(self.keys)
         if self.size:
@@ -140,7 +141,7 @@ class Projection:
         return out
 
 
-def _project_ops(model, bm, atom_mask: int, consumption: list, actions: bool = True) -> _Ops:
+def _project_ops(model, bm, atom_mask: int, consumption: list, actions: bool = True, costs=None) -> _Ops:
     """Every action variant and task consumption, restricted to the pattern's atoms.
 
     A conditional effect gives two operators: it fires (its condition's kept
@@ -148,7 +149,8 @@ def _project_ops(model, bm, atom_mask: int, consumption: list, actions: bool = T
     literal, that literal's negation joins the precondition; otherwise nothing is
     known and both operators stay, an over-approximation)."""
     rows = []     # (pos, neg, add, dele, cost, is action)
-    sources = [(op, model.action_cost[a], True) for op, a in zip(model.ops, model.op_action)] if actions else []
+    costs = model.action_cost if costs is None else costs
+    sources = [(op, costs[a], True) for op, a in zip(model.ops, model.op_action)] if actions else []
     sources += [(op, 0, False) for op in consumption]
     for op, cost, is_action in sources:
         base = (op.pos & atom_mask, op.neg & atom_mask, op.add & atom_mask, op.dele & atom_mask)
@@ -258,6 +260,7 @@ class PatternDatabases:
         for choices, _ in model.resets:
             for c in choices:
                 changed |= c
+        self._changed = changed
         # Each atom's objects (its arguments that are not locations); an unchanging atom has none.
         self.atom_objects = [frozenset(a[1:]) - locations if changed >> i & 1 else frozenset()
                              for i, a in enumerate(model.atoms)]
@@ -281,24 +284,67 @@ class PatternDatabases:
         self._chunks, self._size, self._stacked = [np.zeros(1, dtype=np.int64)], 1, None
         self._plans: dict = {}
         self._windows: dict = {}
+        self._additive: dict = {}
         for task in self.tasks:
             for op in task.bindings:
                 self.tables(op)
         self.seconds = time.perf_counter() - t0
 
-    def tables(self, op) -> list:
-        """(projection, offset into the stacked tables) per pattern of one goal binding (built once)."""
+    def tables(self, op) -> tuple[list, list]:
+        """(projection, offset into the stacked tables) per pattern of one goal binding, in two
+        lists: the patterns whose largest value counts and the additive ones whose sum counts
+        (built once)."""
         key = (op.pos, op.neg)
         if key not in self._tables:
             goal = [(self.bm.pack([op.pos])[0], self.bm.pack([op.neg])[0])]
-            pairs = []
-            for p in filter(None, (self.projection(o) for o in self.patterns(op, self.max_objects))):
-                self._chunks.append(p.distances(goal))
-                pairs.append((p, self._size))
-                self._size += len(self._chunks[-1])
-            self._tables[key] = pairs
+            lists = []
+            for patterns in (self.patterns(op), self.additive(op)):
+                pairs = []
+                for p in patterns:
+                    self._chunks.append(p.distances(goal))
+                    pairs.append((p, self._size))
+                    self._size += len(self._chunks[-1])
+                lists.append(pairs)
+            self._tables[key] = tuple(lists)
             self._stacked = None
         return self._tables[key]
+
+    def additive(self, op) -> list:
+        """For a goal over several objects: one projection per object onto that object's own atoms
+        (no agent atoms), each action's cost given to the first of them whose atoms it changes and
+        0 in the others, so their distances add up admissibly (a cost partitioning, Katz & Domshlak
+        2008): clearing a table needs every object on it picked and placed."""
+        objects = sorted(self.goal_objects(op), key=self.model.objects.index)
+        if len(objects) < 2:
+            return []
+        key = tuple(objects)
+        if key not in self._additive:
+            m = self.model
+            own = {o: 0 for o in objects}
+            for i, objs in enumerate(self.atom_objects):
+                if len(objs) == 1 and next(iter(objs)) in own:
+                    own[next(iter(objs))] |= 1 << i
+            fixed = 0                                   # atoms nothing changes (the fountain's place)
+            for i, objs in enumerate(self.atom_objects):
+                if not objs and not self._changed >> i & 1:
+                    fixed |= 1 << i
+            owner = {}
+            for o2, a in zip(m.ops, m.op_action):
+                changed = o2.add | o2.dele
+                for _, _, ca, cd in o2.cond:
+                    changed |= ca | cd
+                first = next((o for o in objects if changed & own[o]), None)
+                if first is not None:
+                    owner.setdefault(a, first)
+            out = []
+            for o in objects:
+                costs = [c if owner.get(a) == o else 0 for a, c in enumerate(m.action_cost)]
+                p = Projection(m, self.bm, frozenset([o]), own[o] | fixed, self.seeds, self._consumption,
+                               self._max_states, costs)
+                if p.exhausted:
+                    out.append(p)
+            self._additive[key] = out
+        return self._additive[key]
 
     def goal_objects(self, op) -> frozenset:
         out = frozenset()
@@ -306,14 +352,21 @@ class PatternDatabases:
             out |= self.atom_objects[i]
         return out
 
-    def patterns(self, op, max_objects: int) -> list[frozenset]:
-        """A binding's object sets: its goal's objects with each neighbour (or, for a goal over
-        more than `max_objects` objects, each object on its own)."""
+    def patterns(self, op) -> list:
+        """A binding's patterns: its goal's objects with each neighbour; where none of those fits
+        the budget (or the goal has max_objects objects or more), the goal's objects alone; where
+        that does not fit either, each of them on its own."""
         base = self.goal_objects(op)
-        if len(base) >= max_objects:
-            return [frozenset([o]) for o in sorted(base, key=self.model.objects.index)]
-        near = set().union(*(self.neighbours[o] for o in base)) - base if base else set()
-        return [base | {x} for x in sorted(near, key=self.model.objects.index)] or [base]
+        order = lambda objs: sorted(objs, key=self.model.objects.index)
+        groups = [[base], [frozenset([o]) for o in order(base)]]
+        if len(base) < self.max_objects:
+            near = set().union(*(self.neighbours[o] for o in base)) - base
+            groups.insert(0, [base | {x} for x in order(near)])
+        for group in groups:
+            found = [p for p in map(self.projection, group) if p is not None]
+            if found:
+                return found
+        return []
 
     def projection(self, objects: frozenset, max_states: int | None = None) -> Projection | None:
         """The projection onto these objects (built once; None if it has more than max_states states)."""
@@ -368,26 +421,33 @@ class PatternDatabases:
             self._plans[key] = self._plan(goals)
         if self._stacked is None:
             self._stacked = np.concatenate(self._chunks)
-        projections, column, offset, binding_starts, goal_starts = self._plans[key]
+        projections, maxed, summed, goal_starts = self._plans[key]
         idx = np.stack([p.index(batch) for p in projections], axis=1)       # (N, projections)
-        d = self._stacked[offset + idx[:, column]]                           # (N, pairs)
-        return np.minimum.reduceat(np.maximum.reduceat(d, binding_starts, axis=1), goal_starts, axis=1)
+        column, offset, starts = maxed
+        h = np.maximum.reduceat(self._stacked[offset + idx[:, column]], starts, axis=1)
+        column, offset, starts = summed
+        part = np.minimum(self._stacked[offset + idx[:, column]], _PART_INF)
+        total = np.add.reduceat(part, starts, axis=1)
+        h = np.maximum(h, np.where(total >= _PART_INF, INF_64, total))
+        return np.minimum.reduceat(h, goal_starts, axis=1)
 
     def _plan(self, goals) -> tuple:
         """Which projections, table offsets and reduce boundaries answer a list of goals."""
-        projections, where, column, offset, binding_starts, goal_starts = [], {}, [], [], [], []
+        projections, where, goal_starts = [], {}, []
+        cols = ([], [], [], []), ([], [], [], [])         # maxed, summed: column, offset, binding starts
         for goal in goals:
-            goal_starts.append(len(binding_starts))
+            goal_starts.append(len(cols[0][2]))
             for op in goal.bindings:
-                binding_starts.append(len(column))
-                for p, off in self.tables(op) or [(_NOWHERE, 0)]:
-                    if p.objects not in where:
-                        where[p.objects] = len(projections)
-                        projections.append(p)
-                    column.append(where[p.objects])
-                    offset.append(off)
-        return (projections, np.array(column), np.array(offset, dtype=np.int64),
-                np.array(binding_starts), np.array(goal_starts))
+                for (column, offset, starts, _), pairs in zip(cols, self.tables(op)):
+                    starts.append(len(column))
+                    for p, off in pairs or [(_NOWHERE, 0)]:
+                        if id(p) not in where:
+                            where[id(p)] = len(projections)
+                            projections.append(p)
+                        column.append(where[id(p)])
+                        offset.append(off)
+        arrays = [(np.array(c), np.array(o, dtype=np.int64), np.array(s)) for c, o, s, _ in cols]
+        return projections, arrays[0], arrays[1], np.array(goal_starts)
 
     def __call__(self, batch: np.ndarray, unsettled: np.ndarray) -> np.ndarray:
         """min over the unsettled tasks: the labelling search's heuristic contract."""
@@ -408,6 +468,7 @@ class _Nowhere:
 
 
 _NOWHERE = _Nowhere()
+_PART_INF = INF_64 // 64          # summands are clipped here: a sum of up to 64 never overflows
 
 
 @lru_cache(maxsize=8)
