@@ -326,7 +326,7 @@ class Labeller:
     planning.pdb; the default, for a layout whose rooms name its locations, else
     "lmcut"), "lmcut" (LM-cut of the unsettled tasks' goals joined by "or";
     planning.lmcut), "lmcut-pc" (the same on the P^C compilation with the agent's
-    atom pairs, oracles.conjunctions; states that break the mutexes it relies on
+    atom pairs, planning.conjunctions; states that break the mutexes it relies on
     are labelled with "lmcut"), "hmax" (min over the unsettled tasks of h_max) or
     "blind" (Dijkstra). All are admissible, so every label is the same exact one.
     """
@@ -350,7 +350,7 @@ class Labeller:
         elif heuristic == "lmcut":
             h = UnionGoal(self.goals, LMCut(model, self.bm), "lmcut")
         elif heuristic == "lmcut-pc":
-            from oracles.conjunctions import ConjunctionLMCut, MutexPairs, agent_pairs
+            from planning.conjunctions import ConjunctionLMCut, MutexPairs, agent_pairs
 
             self.mutex = MutexPairs(model, [model.init] + [model.reset_state(seed) for seed in range(32)])
             pc = ConjunctionLMCut(model, self.bm, self.mutex, self.goals.literals, keep=agent_pairs(model))

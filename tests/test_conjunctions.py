@@ -1,8 +1,8 @@
-"""LM-cut on P^C (oracles.conjunctions): mutexes, the pantry round trip, and labels equal to plain LM-cut's."""
+"""LM-cut on P^C (planning.conjunctions): mutexes, the pantry round trip, and labels equal to plain LM-cut's."""
 import numpy as np
 
 from conftest import random_walk_states
-from oracles.conjunctions import ConjunctionLMCut, MutexPairs, agent_pairs
+from planning.conjunctions import ConjunctionLMCut, MutexPairs, agent_pairs
 from oracles.labelling import Labeller
 from planning.batched import BatchedModel
 from planning.heuristics import goal_literals
