@@ -16,7 +16,11 @@ The patterns come from the task goals: each goal binding's objects, alone and
 with each object that shares a ground action with them (a cup with the jar
 that refills it, the water machine that fills it with coffee; a bowl and an
 apple with the knife). A task's estimate is the smallest over its bindings of
-the largest over that binding's patterns.
+the largest over that binding's patterns, or of the sum of per-object
+projections under a cost partitioning where the goal names several objects. A
+window of tasks (the clairvoyant's) gets projections onto its tasks' goal
+objects with the stage in the abstract state: the cost-to-go runs backwards
+from the last task through each task's goal and consumption.
 
 Locations are the objects the domain folder lists under its layout's rooms;
 "objects" are the others that occur in a fluent atom some action, consumption
@@ -27,7 +31,6 @@ world is in them; a state outside (e.g. hand-written) gets h = 0.
 from __future__ import annotations
 
 import itertools
-import time
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -243,7 +246,6 @@ class PatternDatabases:
 
     def __init__(self, model, bm: BatchedModel | None = None, tasks=None, max_states: int = 200_000,
                  max_objects: int = 3):
-        t0 = time.perf_counter()
         self.model = model
         self.bm = bm or BatchedModel(model)
         self.tasks = list(model.tasks.tasks if tasks is None else tasks)
@@ -288,7 +290,6 @@ class PatternDatabases:
         for task in self.tasks:
             for op in task.bindings:
                 self.tables(op)
-        self.seconds = time.perf_counter() - t0
 
     def tables(self, op) -> tuple[list, list]:
         """(projection, offset into the stacked tables) per pattern of one goal binding, in two
