@@ -41,13 +41,21 @@ from scipy.sparse.csgraph import dijkstra
 from .batched import BatchedModel
 from .errors import DomainError
 from .heuristics import INF_64
-from .levels import state_keys
+from .levels import satisfied, state_keys
 
 CHUNK = 1 << 14             # abstract states expanded per numpy call
 
 
 def _bits(mask: int) -> list[int]:
     return [i for i in range(mask.bit_length()) if mask >> i & 1]
+
+
+def _changes(op) -> int:
+    """The atoms an op may add or delete, its conditional effects' included."""
+    out = op.add | op.dele
+    for _, _, ca, cd in op.cond:
+        out |= ca | cd
+    return out
 
 
 @dataclass
@@ -96,14 +104,11 @@ class Projection:
         hit = (self.keys[pos] == keys) & (self.rows[pos] == proj).all(1)
         return np.where(hit, pos, self.size)
 
-    def distances(self, goal: list) -> np.ndarray:
+    def distances(self, pos: np.ndarray, neg: np.ndarray) -> np.ndarray:
         """(size + 1,) int64 cost from each abstract state to the nearest abstract goal state
         (INF_64: none reachable); the extra last entry, 0, answers states outside the space.
-        `goal`: (pos, neg) packed words of each conjunction, a disjunction."""
-        hold = np.zeros(self.size, dtype=bool)
-        for pos, neg in goal:
-            pos, neg = pos & self.mask, neg & self.mask
-            hold |= ((self.rows & pos) == pos).all(1) & ((self.rows & neg) == 0).all(1)
+        The goal is a DNF as (K, W) pos/neg words (levels.goal_arrays)."""
+        hold = satisfied(self.rows, pos & self.mask, neg & self.mask)
         return self._backward_from(np.where(hold, 0, INF_64))
 
     def window_distances(self, tasks: list) -> list[np.ndarray]:
@@ -117,8 +122,7 @@ class Projection:
             start = np.full(self.size, INF_64, dtype=np.int64)
             done = _project_ops(self._model, self._bm, self._atom_mask, list(task.bindings), actions=False)
             for v in range(len(done.cost)):
-                ok = np.flatnonzero(((self.rows & done.pos[v]) == done.pos[v]).all(1)
-                                    & ((self.rows & done.neg[v]) == 0).all(1))
+                ok = np.flatnonzero(satisfied(self.rows, done.pos[v: v + 1], done.neg[v: v + 1]))
                 nxt = (self.rows[ok] & done.keep[v]) | done.add[v]
                 start[ok] = np.minimum(start[ok], after[self.index(nxt)])
             after = self._backward_from(start)
@@ -256,9 +260,7 @@ class PatternDatabases:
         consumption = [op for t in model.tasks.tasks for op in t.bindings]
         changed = 0
         for op in [*model.ops, *consumption]:
-            changed |= op.add | op.dele
-            for _, _, ca, cd in op.cond:
-                changed |= ca | cd
+            changed |= _changes(op)
         for choices, _ in model.resets:
             for c in choices:
                 changed |= c
@@ -297,12 +299,12 @@ class PatternDatabases:
         (built once)."""
         key = (op.pos, op.neg)
         if key not in self._tables:
-            goal = [(self.bm.pack([op.pos])[0], self.bm.pack([op.neg])[0])]
+            pos, neg = self.bm.pack([op.pos]), self.bm.pack([op.neg])
             lists = []
             for patterns in (self.patterns(op), self.additive(op)):
                 pairs = []
                 for p in patterns:
-                    self._chunks.append(p.distances(goal))
+                    self._chunks.append(p.distances(pos, neg))
                     pairs.append((p, self._size))
                     self._size += len(self._chunks[-1])
                 lists.append(pairs)
@@ -331,10 +333,7 @@ class PatternDatabases:
                     fixed |= 1 << i
             owner = {}
             for o2, a in zip(m.ops, m.op_action):
-                changed = o2.add | o2.dele
-                for _, _, ca, cd in o2.cond:
-                    changed |= ca | cd
-                first = next((o for o in objects if changed & own[o]), None)
+                first = next((o for o in objects if _changes(o2) & own[o]), None)
                 if first is not None:
                     owner.setdefault(a, first)
             out = []
