@@ -50,39 +50,92 @@ def cheapest_unique(rows: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.nda
     return pick, keys[first]
 
 
-class ClosedStates:
-    """The states a search has closed, with the g of their last closing; keys sorted, rows checked."""
+class StateTable:
+    """Packed states with an int64 value each, in sorted runs of keys (a log-structured merge).
+
+    A search adds states level by level; one sorted array would copy everything at
+    every level (np.insert), quadratic in the states closed. Here each add is a new
+    sorted run, merged with the runs before it while they are no more than twice its
+    size, so there are O(log n) runs and every state is merged O(log n) times.
+    Lookups search each run; a key match is checked against the stored row."""
 
     def __init__(self, n_words: int):
-        self.keys = np.zeros(0, dtype=np.uint64)
-        self.rows = np.zeros((0, n_words), dtype=np.uint64)
-        self.g = np.zeros(0, dtype=np.int64)
+        self.n_words = n_words
+        self.runs: list[list[np.ndarray]] = []      # [keys (sorted), rows, values]
 
     def __len__(self) -> int:
-        return len(self.keys)
+        return sum(len(r[0]) for r in self.runs)
+
+    def find(self, keys: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(run, position) of each state; run -1 for one not in the table."""
+        run = np.full(len(keys), -1, dtype=np.int64)
+        pos = np.zeros(len(keys), dtype=np.int64)
+        for r, (k, stored, _) in enumerate(self.runs):
+            p = np.minimum(np.searchsorted(k, keys), len(k) - 1)
+            hit = np.flatnonzero(k[p] == keys)
+            if (stored[p[hit]] != rows[hit]).any():
+                raise StateKeyCollision("a state shares its key with a stored one")
+            run[hit], pos[hit] = r, p[hit]
+        return run, pos
+
+    def get(self, run: np.ndarray, pos: np.ndarray, default: int = 0) -> np.ndarray:
+        """The values at find's (run, position); `default` where run is -1."""
+        out = np.full(len(run), default, dtype=np.int64)
+        for r, (_, _, values) in enumerate(self.runs):
+            at = run == r
+            out[at] = values[pos[at]]
+        return out
+
+    def set(self, run: np.ndarray, pos: np.ndarray, values: np.ndarray) -> None:
+        """Overwrite the values at find's (run, position) (run -1 is not allowed)."""
+        for r, (_, _, stored) in enumerate(self.runs):
+            at = run == r
+            stored[pos[at]] = values[at]
+
+    def add(self, keys: np.ndarray, rows: np.ndarray, values: np.ndarray) -> None:
+        """Add states that are not in the table (distinct keys, any order)."""
+        if not len(keys):
+            return
+        order = np.argsort(keys, kind="stable")
+        run = [keys[order], rows[order], np.asarray(values, dtype=np.int64)[order]]
+        while self.runs and len(self.runs[-1][0]) <= 2 * len(run[0]):
+            last = self.runs.pop()
+            merged = [np.concatenate((a, b)) for a, b in zip(last, run)]
+            order = np.argsort(merged[0], kind="stable")
+            run = [x[order] for x in merged]
+        self.runs.append(run)
+
+    def merged(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(keys, rows, values) of every state, in key order."""
+        if not self.runs:
+            return (np.zeros(0, dtype=np.uint64), np.zeros((0, self.n_words), dtype=np.uint64),
+                    np.zeros(0, dtype=np.int64))
+        keys, rows, values = (np.concatenate(x) for x in zip(*self.runs))
+        order = np.argsort(keys, kind="stable")
+        return keys[order], rows[order], values[order]
+
+
+class ClosedStates:
+    """The states a search has closed, with the g of their last closing (a StateTable)."""
+
+    def __init__(self, n_words: int):
+        self.table = StateTable(n_words)
+
+    def __len__(self) -> int:
+        return len(self.table)
 
     def closed_mask(self, keys, rows, g) -> np.ndarray:
-        """(N,) bool: which states (sorted unique keys) are closed already at a g no larger."""
-        if not len(self.keys):
-            return np.zeros(len(keys), dtype=bool)
-        pos = np.minimum(np.searchsorted(self.keys, keys), len(self.keys) - 1)
-        hit = self.keys[pos] == keys
-        if (self.rows[pos[hit]] != rows[hit]).any():
-            raise StateKeyCollision("a new state shares its key with a closed one")
-        return hit & (self.g[pos] <= g)
+        """(N,) bool: which states are closed already at a g no larger."""
+        run, pos = self.table.find(keys, rows)
+        return (run >= 0) & (self.table.get(run, pos) <= g)
 
     def close(self, keys, rows, g) -> int:
-        """Close states (sorted unique keys, none closed at a g as small); how many were reopened."""
-        pos = np.searchsorted(self.keys, keys)     # keys are sorted: the merge stays sorted
-        known = np.zeros(len(keys), dtype=bool)
-        if len(self.keys):
-            inside = pos < len(self.keys)
-            known[inside] = self.keys[pos[inside]] == keys[inside]
-        self.g[pos[known]] = g[known]              # reopened: a smaller g than before
+        """Close distinct states (none closed at a g as small); how many were reopened."""
+        run, pos = self.table.find(keys, rows)
+        known = run >= 0
+        self.table.set(run[known], pos[known], g[known])        # reopened: a smaller g than before
         new = ~known
-        self.keys = np.insert(self.keys, pos[new], keys[new])
-        self.rows = np.insert(self.rows, pos[new], rows[new], axis=0)
-        self.g = np.insert(self.g, pos[new], g[new])
+        self.table.add(keys[new], rows[new], g[new])
         return int(known.sum())
 
 
@@ -112,9 +165,7 @@ class CostLevels:
         self._closed = ClosedStates(bm.n_words)
         # h of every state evaluated so far: an open state is generated again and
         # again from different parents, and a strong heuristic is the dear part.
-        self._h_keys = np.zeros(0, dtype=np.uint64)
-        self._h_rows = np.zeros((0, bm.n_words), dtype=np.uint64)
-        self._h_vals = np.zeros(0, dtype=np.int64)
+        self._h_table = StateTable(bm.n_words)
         self._parents: list[np.ndarray] = []
         self._actions: list[np.ndarray] = []
         start_row = bm.pack([start])
@@ -163,22 +214,13 @@ class CostLevels:
         return rows[fresh], parents[fresh], actions[fresh], g[fresh], keys[fresh]
 
     def _cached_h(self, keys, rows) -> np.ndarray:
-        """h of states with sorted unique keys, computed only for those never seen before."""
-        h = np.empty(len(keys), dtype=np.int64)
-        known = np.zeros(len(keys), dtype=bool)
-        if len(self._h_keys):
-            pos = np.minimum(np.searchsorted(self._h_keys, keys), len(self._h_keys) - 1)
-            known = self._h_keys[pos] == keys
-            if (self._h_rows[pos[known]] != rows[known]).any():
-                raise StateKeyCollision("an evaluated state shares its key with another")
-            h[known] = self._h_vals[pos[known]]
-        new = ~known
+        """h of distinct states, computed only for those never seen before."""
+        run, pos = self._h_table.find(keys, rows)
+        h = self._h_table.get(run, pos)
+        new = run < 0
         if new.any():
             h[new] = self.h(rows[new])
-            pos = np.searchsorted(self._h_keys, keys[new])
-            self._h_keys = np.insert(self._h_keys, pos, keys[new])
-            self._h_rows = np.insert(self._h_rows, pos, rows[new], axis=0)
-            self._h_vals = np.insert(self._h_vals, pos, h[new])
+            self._h_table.add(keys[new], rows[new], h[new])
         return h
 
     def _expand(self, f_parent, rows, ids, g) -> None:

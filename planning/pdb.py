@@ -41,7 +41,7 @@ from scipy.sparse.csgraph import dijkstra
 from .batched import BatchedModel
 from .errors import DomainError
 from .heuristics import INF_64
-from .levels import satisfied, state_keys
+from .levels import StateTable, satisfied, state_keys
 
 CHUNK = 1 << 14             # abstract states expanded per numpy call
 
@@ -186,15 +186,14 @@ def _explore(bm, ops: _Ops, seeds: np.ndarray, max_states: int):
     actions' only (consumption only makes states reachable). States are deduplicated by 64-bit
     key and every key match is checked against the stored row (a collision raises)."""
     W = bm.n_words
-    rows = np.unique(seeds, axis=0)
-    keys = state_keys(rows)
-    by_key = np.argsort(keys, kind="stable")                 # ids in key order
-    sorted_keys = keys[by_key]
-    blocks, key_blocks = [rows], [keys]
-    src, dst_keys, costs = [], [], []
-    lo_id, frontier = 0, rows
-    while len(frontier) and len(sorted_keys) <= max_states:
-        children, child_keys = [], []
+    frontier = np.unique(seeds, axis=0)
+    seen = StateTable(W)
+    seen.add(state_keys(frontier), frontier, np.arange(len(frontier)))
+    n = len(frontier)
+    src, dst, costs = [], [], []
+    lo_id = 0
+    while len(frontier) and n <= max_states:
+        children, sources, edge = [], [], []
         for lo in range(0, len(frontier), CHUNK):
             part = frontier[lo: lo + CHUNK]
             viol = np.zeros((len(part), len(ops.cost)), dtype=np.uint64)
@@ -203,40 +202,33 @@ def _explore(bm, ops: _Ops, seeds: np.ndarray, max_states: int):
                 viol |= ~s & ops.pos[None, :, w]
                 viol |= s & ops.neg[None, :, w]
             r, v = np.nonzero(viol == 0)
-            child = (part[r] & ops.keep[v]) | ops.add[v]
-            ck = state_keys(child)
-            act = ops.edge[v]
-            src.append(lo_id + lo + r[act])
-            dst_keys.append(ck[act])
-            costs.append(ops.cost[v[act]])
-            children.append(child)
-            child_keys.append(ck)
-        child, ck = np.concatenate(children), np.concatenate(child_keys)
-        ck, first, back = np.unique(ck, return_index=True, return_inverse=True)
-        if (child[first][back.ravel()] != child).any():
+            children.append((part[r] & ops.keep[v]) | ops.add[v])
+            sources.append(lo_id + lo + r)
+            edge.append(v)
+        child = np.concatenate(children)
+        ck, first, back = np.unique(state_keys(child), return_index=True, return_inverse=True)
+        back = back.ravel()
+        if (child[first][back] != child).any():
             raise RuntimeError("two abstract states share a 64-bit key")
         child = child[first]
-        pos = np.minimum(np.searchsorted(sorted_keys, ck), len(sorted_keys) - 1)
-        seen = sorted_keys[pos] == ck
-        known_rows = np.concatenate(blocks)
-        if (known_rows[by_key[pos[seen]]] != child[seen]).any():
-            raise RuntimeError("two abstract states share a 64-bit key")
-        lo_id = len(known_rows)
-        frontier, fk = child[~seen], ck[~seen]
-        blocks.append(frontier)
-        key_blocks.append(fk)
-        keys = np.concatenate(key_blocks)
-        by_key = np.argsort(keys, kind="stable")
-        sorted_keys = keys[by_key]
-    rows = np.concatenate(blocks)
-    rank = np.empty(len(by_key), dtype=np.int64)
-    rank[by_key] = np.arange(len(by_key))                    # id -> position in key order
-    src = np.concatenate(src) if src else np.zeros(0, dtype=np.int64)
-    dst_keys = np.concatenate(dst_keys) if dst_keys else np.zeros(0, dtype=np.uint64)
-    cost = np.concatenate(costs) if costs else np.zeros(0, dtype=np.int64)
-    dst = np.minimum(np.searchsorted(sorted_keys, dst_keys), len(sorted_keys) - 1)
-    inside = sorted_keys[dst] == dst_keys                   # targets of the last, unexpanded level
-    return sorted_keys, rows[by_key], rank[src[inside]], dst[inside], cost[inside]
+        run, at = seen.find(ck, child)
+        new = run < 0
+        ids = seen.get(run, at)
+        ids[new] = np.arange(n, n + new.sum())
+        v = np.concatenate(edge)
+        act = ops.edge[v]
+        src.append(np.concatenate(sources)[act])
+        dst.append(ids[back[act]])
+        costs.append(ops.cost[v[act]])
+        lo_id = n
+        frontier = child[new]
+        seen.add(ck[new], frontier, ids[new])
+        n += len(frontier)
+    sorted_keys, rows, ids = seen.merged()
+    rank = np.empty(n, dtype=np.int64)
+    rank[ids] = np.arange(n)                                 # id -> position in key order
+    cat = lambda parts, dtype: np.concatenate(parts) if parts else np.zeros(0, dtype=dtype)
+    return sorted_keys, rows, rank[cat(src, np.int64)], rank[cat(dst, np.int64)], cat(costs, np.int64)
 
 
 class PatternDatabases:
