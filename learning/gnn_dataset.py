@@ -67,8 +67,9 @@ class DatasetConfig:
     n_states: int = 2000            # faithful states
     augmented: bool = False
     n_prepared: int | None = None   # prepared states added when augmented (default 3 x n_states: 8,000 in all)
-    seed: int = 0                   # seed of the myopic rollout; the prepared stream uses seed + 1
-    workers: int = 2                # labelling processes
+    seed: int = 0                   # seed of the myopic rollout; prepared stream i uses seed + 1 + i
+    workers: int = 2                # processes collecting prepared states and labelling
+    prepared_streams: int = 4       # independent prepared task streams (seeds seed + 1 ...), whatever the workers
     heuristic: str = "pdb"          # of the labelling search (oracles.labelling.HEURISTICS)
     label_time_limit: float | None = None   # seconds per label (None: exact, however long)
     plan_time_limit: float = 120.0  # seconds per joint task + clause plan before falling back to the task alone
@@ -174,33 +175,46 @@ class JointGoal:
         return any(state & o.pos == o.pos and not state & o.neg for o in self.bindings)
 
 
-def prepared_states(model, n: int, cfg: DatasetConfig, cache: Path, progress: bool = True) -> list[int]:
-    """n distinct states along optimal plans for (task AND a preparatory clause) on a seeded stream.
+def prepared_states(model, n: int, cfg: DatasetConfig, cache: Path, progress: bool = True, stream: int = 0,
+                    exclude=frozenset(), counter=None) -> list[int]:
+    """n distinct states, none in `exclude`, along optimal plans for (task AND a preparatory clause)
+    on the seeded task stream number `stream` (seed cfg.seed + 1 + stream).
 
     The executed plans are kept in `cache` (written atomically), so a rerun replays them.
+    `counter` (a multiprocessing Value) counts the states found, for a progress bar elsewhere.
     """
     from planning.batched import BatchedModel
     from planning.heuristics import HMax
     from planning.search import optimal_plan
     from planning.task_stream import TaskStream
 
+    seed = cfg.seed + 1 + stream
     bm = BatchedModel(model)
     hmax = HMax(model, bm)
     library = ClauseLibrary(model, cfg.min_clause_cost)
-    rng = np.random.default_rng(cfg.seed + 1)
-    stream = TaskStream(model, cfg.seed + 1)
+    rng = np.random.default_rng(seed)
+    task_stream = TaskStream(model, seed)
     done = json.loads(cache.read_text())["tasks"] if cache.is_file() else []
     rows: list[dict] = []
     states: dict[int, None] = {}
     state = None
     bar = tqdm(total=n, desc=f"prepared states {model.layout}", unit="state", disable=not progress)
+
+    def keep(path):
+        new = [s for s in dict.fromkeys(path) if s not in states and s not in exclude][: n - len(states)]
+        states.update(dict.fromkeys(new))
+        bar.update(len(new))
+        if counter is not None:
+            with counter.get_lock():
+                counter.value += len(new)
+
     last_save = time.monotonic()
     i = 0
     while len(states) < n:
-        task, reset = stream.next()
+        task, reset = task_stream.next()
         if reset is not None:
             state = model.reset_state(reset)
-            states.setdefault(state)
+            keep([state])
         clause = int(rng.integers(1 << 30))         # drawn every task, so a replay draws the same
         if i < len(done):
             row = done[i]
@@ -209,7 +223,6 @@ def prepared_states(model, n: int, cfg: DatasetConfig, cache: Path, progress: bo
             plan = [model.action(a) for a in row["plan"]]
         else:
             row, plan = _plan_prepared(model, bm, hmax, library, state, task, clause, cfg, optimal_plan)
-        before = len(states)
         path = [state]
         for a in plan:
             path.append(model.apply(path[-1], a))
@@ -218,18 +231,17 @@ def prepared_states(model, n: int, cfg: DatasetConfig, cache: Path, progress: bo
             path.pop()                          # the goal state itself: no task starts there
             state = task.consume(state)
             path.append(state)
-        states.update(dict.fromkeys(path))
+        keep(path)
         if i >= len(done):
             rows.append(row)
         i += 1
-        bar.update(min(len(states), n) - min(before, n))
         if rows and time.monotonic() - last_save > CHECKPOINT_SECONDS:
-            write_json(cache, {"layout": model.layout, "seed": cfg.seed + 1, "tasks": done + rows})
+            write_json(cache, {"layout": model.layout, "seed": seed, "tasks": done + rows})
             last_save = time.monotonic()
     bar.close()
     if rows:
-        write_json(cache, {"layout": model.layout, "seed": cfg.seed + 1, "tasks": done + rows})
-    return list(states)[:n]
+        write_json(cache, {"layout": model.layout, "seed": seed, "tasks": done + rows})
+    return list(states)
 
 
 def _plan_prepared(model, bm, hmax, library, state, task, draw, cfg, optimal_plan):
@@ -264,66 +276,145 @@ def _bits(mask: int) -> list[int]:
     return [i for i in range(mask.bit_length()) if mask >> i & 1]
 
 
-# ---- labelling in worker processes -------------------------------------------------------
-_WORKER = {}
+# ---- collection and labelling in worker processes ---------------------------------------
+_WORKER: dict = {}
 
 
-def _init_worker(domain: str, layout: str, heuristic: str, time_limit) -> None:
+def _init_worker(cfg: DatasetConfig, counter) -> None:
     from oracles.labelling import Labeller
     from planning.compiler import compile_domain
 
-    _WORKER["labeller"] = Labeller(compile_domain(domain, layout), heuristic, time_limit)
+    model = compile_domain(cfg.domain, cfg.layout)
+    _WORKER.update(cfg=cfg, model=model, counter=counter,
+                   labeller=Labeller(model, cfg.heuristic, cfg.label_time_limit))
 
 
-def _label_one(state: int):
-    lab = _WORKER["labeller"].label(state)
-    return state, lab.c_ap, [int(c) for c in lab.costs], lab.seconds, lab.complete
+def _label_chunk(states: list[int]) -> list[tuple]:
+    out = []
+    for s in states:
+        lab = _WORKER["labeller"].label(s)
+        out.append((s, lab.c_ap, [int(c) for c in lab.costs], lab.seconds, lab.complete))
+    return out
+
+
+def _collect_stream(stream: int, n: int, cache: Path, exclude: frozenset) -> list[int]:
+    return prepared_states(_WORKER["model"], n, _WORKER["cfg"], cache, progress=False, stream=stream,
+                           exclude=exclude, counter=_WORKER["counter"])
+
+
+class _Done:
+    """A job already done: what apply_async of _InProcess returns."""
+
+    def __init__(self, value):
+        self.value = value
+
+    def ready(self) -> bool:
+        return True
+
+    def get(self):
+        return self.value
+
+
+class _InProcess:
+    """The Pool interface for one worker: every job runs in this process when it is submitted."""
+
+    def __init__(self, cfg, counter):
+        self.args = (cfg, counter)
+
+    def apply_async(self, fn, args) -> _Done:
+        if _WORKER.get("cfg") != self.args[0]:
+            _init_worker(*self.args)
+        return _Done(fn(*args))
+
+    def terminate(self) -> None:
+        pass
+
+
+class Workers:
+    """Collect prepared streams and label states in one pool of cfg.workers processes, so that
+    labelling runs beside the collection; labels are checkpointed atomically every few seconds."""
+
+    def __init__(self, cfg: DatasetConfig, checkpoint: Path, known: dict | None = None, progress: bool = True):
+        self.cfg, self.checkpoint, self.progress = cfg, checkpoint, progress
+        self.labels = dict(known or {})
+        if checkpoint.is_file():
+            try:
+                saved = json.loads(checkpoint.read_text())
+            except json.JSONDecodeError as e:
+                raise DomainError(checkpoint, f"corrupt checkpoint: {e.msg}") from None
+            self.labels.update({int(s): tuple(v) for s, v in saved["labels"].items()})
+        self.counter = mp.get_context("fork").Value("q", 0)
+        self._pool = None
+        self._pending: list = []                # label jobs not yet collected
+        self._queued: set[int] = set()
+        self._bar = tqdm(total=0, desc="labelling C_AP", unit="state", disable=not progress)
+        self._last_save = time.monotonic()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.save()
+        self._bar.close()
+        if self._pool is not None:
+            self._pool.terminate()
+
+    @property
+    def pool(self):
+        if self._pool is None:
+            args = (self.cfg, self.counter)
+            self._pool = (_InProcess(*args) if self.cfg.workers <= 1 else
+                          mp.get_context("fork").Pool(self.cfg.workers, initializer=_init_worker, initargs=args))
+        return self._pool
+
+    def save(self) -> None:
+        write_json(self.checkpoint, {"labels": {str(s): list(v) for s, v in self.labels.items()}})
+        self._last_save = time.monotonic()
+
+    def label(self, states: list[int]) -> None:
+        """Queue the states not labelled yet, in contiguous chunks (neighbours share cached estimates)."""
+        new = [s for s in dict.fromkeys(states) if s not in self._queued]
+        self._queued.update(new)
+        self._bar.total += len(new)
+        todo = [s for s in new if s not in self.labels]
+        self._bar.update(len(new) - len(todo))
+        chunk = max(1, min(25, len(todo) // (4 * max(1, self.cfg.workers))))
+        for lo in range(0, len(todo), chunk):
+            self._pending.append(self.pool.apply_async(_label_chunk, (todo[lo: lo + chunk],)))
+        self.poll()
+
+    def collect(self, stream: int, n: int, cache: Path, exclude: frozenset):
+        """Start collecting n prepared states of one stream; a job whose get() returns them."""
+        return self.pool.apply_async(_collect_stream, (stream, n, cache, exclude))
+
+    def poll(self) -> None:
+        """Take the finished label jobs."""
+        done = [j for j in self._pending if j.ready()]
+        self._pending = [j for j in self._pending if not j.ready()]
+        for job in done:
+            for state, value, costs, seconds, complete in job.get():
+                if not complete:
+                    raise DomainError(f"state {state}", f"labelling stopped by the {self.cfg.label_time_limit}s limit")
+                self.labels[state] = (value, costs, seconds)
+                self._bar.update(1)
+        if time.monotonic() - self._last_save > CHECKPOINT_SECONDS:
+            self.save()
+
+    def wait(self, jobs=()) -> None:
+        """Poll until every label job and every job in `jobs` is done."""
+        while self._pending or not all(j.ready() for j in jobs):
+            self.poll()
+            time.sleep(0.05)
+        self.poll()
 
 
 def label_states(states: list[int], cfg: DatasetConfig, checkpoint: Path, known: dict | None = None,
                  progress: bool = True) -> dict:
     """{state: (c_ap, costs, seconds)} for every state, in cfg.workers processes, checkpointed atomically."""
-    labels = dict(known or {})
-    if checkpoint.is_file():
-        try:
-            saved = json.loads(checkpoint.read_text())
-        except json.JSONDecodeError as e:
-            raise DomainError(checkpoint, f"corrupt checkpoint: {e.msg}") from None
-        labels.update({int(s): tuple(v) for s, v in saved["labels"].items()})
-    todo = [s for s in dict.fromkeys(states) if s not in labels]
-    bar = tqdm(total=len(states), initial=len(states) - len(todo), desc="labelling C_AP", unit="state",
-               disable=not progress)
-
-    def save():
-        write_json(checkpoint, {"labels": {str(s): list(v) for s, v in labels.items()}})
-
-    last = time.monotonic()
-    if todo:
-        args = (cfg.domain, cfg.layout, cfg.heuristic, cfg.label_time_limit)
-        if cfg.workers <= 1:
-            _init_worker(*args)
-            results = map(_label_one, todo)
-            pool = None
-        else:
-            pool = mp.get_context("fork").Pool(cfg.workers, initializer=_init_worker, initargs=args)
-            # contiguous runs of states per worker: neighbours share heuristic values (CachedHeuristic)
-            chunk = max(1, min(25, len(todo) // (4 * cfg.workers)))
-            results = pool.imap_unordered(_label_one, todo, chunksize=chunk)
-        try:
-            for state, value, costs, seconds, complete in results:
-                if not complete:
-                    raise DomainError(f"state {state}", f"labelling stopped by the {cfg.label_time_limit}s limit")
-                labels[state] = (value, costs, seconds)
-                bar.update(1)
-                if time.monotonic() - last > CHECKPOINT_SECONDS:
-                    save()
-                    last = time.monotonic()
-        finally:
-            save()
-            if pool is not None:
-                pool.terminate()
-    bar.close()
-    return {s: labels[s] for s in states}
+    with Workers(cfg, checkpoint, known, progress) as work:
+        work.label(states)
+        work.wait()
+        return {s: work.labels[s] for s in states}
 
 
 # ---- the dataset on disk -----------------------------------------------------------------
@@ -409,7 +500,10 @@ def known_labels(folders) -> dict:
 
 
 def build(cfg: DatasetConfig, out, progress: bool = True, reuse=()) -> dict:
-    """Collect, label and save the dataset; returns the metadata written. `reuse`: folders whose labels to take."""
+    """Collect, label and save the dataset; returns the metadata written. `reuse`: folders whose labels to take.
+
+    The prepared states come from cfg.prepared_streams independent streams, collected in the
+    worker processes while the states found so far are labelled beside them."""
     from planning.compiler import compile_domain
 
     out = Path(out)
@@ -417,22 +511,52 @@ def build(cfg: DatasetConfig, out, progress: bool = True, reuse=()) -> dict:
     t0 = time.perf_counter()
     states = faithful_states(model, cfg.n_states, cfg.seed, progress)
     kinds = ["faithful"] * len(states)
-    if cfg.augmented:
-        n_prep = cfg.n_prepared if cfg.n_prepared is not None else 3 * cfg.n_states
-        seen = set(states)
-        extra = [s for s in prepared_states(model, n_prep + len(states), cfg, out / "prepared-rollout.json",
-                                            progress) if s not in seen][:n_prep]
-        states += extra
-        kinds += ["prepared"] * len(extra)
     t_states = time.perf_counter() - t0
-    t1 = time.perf_counter()
-    labels = label_states(states, cfg, out / "labels.partial.json", known_labels(reuse), progress=progress)
-    t_label = time.perf_counter() - t1
-    meta = {"config": asdict(cfg), "kinds": kinds, "seconds_states": round(t_states, 1),
-            "seconds_labelling": round(t_label, 1),
+    with Workers(cfg, out / "labels.partial.json", known_labels(reuse), progress) as work:
+        if cfg.augmented:
+            n_prep = cfg.n_prepared if cfg.n_prepared is not None else 3 * cfg.n_states
+            extra = _prepared(work, cfg, n_prep, states, out, progress)
+            states += extra
+            kinds += ["prepared"] * len(extra)
+        work.label(states)
+        work.wait()
+        labels = {s: work.labels[s] for s in states}
+    t_all = time.perf_counter() - t0
+    meta = {"config": asdict(cfg), "kinds": kinds, "seconds_faithful_states": round(t_states, 1),
+            "seconds_collecting_and_labelling": round(t_all - t_states, 1),
             "label_cpu_seconds": round(sum(v[2] for v in labels.values()), 1)}
     save_dataset(out, model, states, labels, meta)
     return meta
+
+
+def _prepared(work: Workers, cfg: DatasetConfig, n: int, faithful: list[int], out: Path, progress: bool) -> list[int]:
+    """n prepared states, none faithful, from cfg.prepared_streams streams (n / streams each, topped
+    up where streams share states). The long stream jobs go to the workers first, the faithful
+    states' labels behind them, and each stream's states are queued for labelling when it is done."""
+    k = cfg.prepared_streams
+    exclude = frozenset(faithful)
+    quota = [n // k + (i < n % k) for i in range(k)]
+    bar = tqdm(total=n, desc="prepared states", unit="state", disable=not progress)
+    while True:
+        work.counter.value = 0
+        bar.reset()
+        jobs = [work.collect(i, quota[i], out / f"prepared-rollout-{i}.json", exclude) for i in range(k)]
+        work.label(faithful)
+        found: list = [None] * k
+        while any(f is None for f in found):
+            for i, job in enumerate(jobs):
+                if found[i] is None and job.ready():
+                    found[i] = job.get()
+                    work.label(found[i])
+            work.poll()
+            bar.update(max(0, min(n, work.counter.value) - bar.n))
+            time.sleep(0.05)
+        states = list(dict.fromkeys(s for f in found for s in f))
+        if len(states) >= n:
+            bar.close()
+            return states[:n]
+        short = n - len(states)
+        quota = [q + short // k + 1 for q in quota]            # streams replay their cached plans first
 
 
 def main() -> None:
@@ -440,7 +564,8 @@ def main() -> None:
     p.add_argument("--augmented", action="store_true", help="add counterfactual prepared states")
     p.add_argument("--n-states", type=int, default=2000, help="faithful states (default: %(default)s)")
     p.add_argument("--n-prepared", type=int, default=None, help="prepared states (default: 3 x n-states)")
-    p.add_argument("--workers", type=int, default=2, help="labelling processes (default: %(default)s)")
+    p.add_argument("--workers", type=int, default=2,
+                   help="processes collecting prepared states and labelling (default: %(default)s)")
     p.add_argument("--heuristic", default="pdb", help="labelling search heuristic: pdb, lmcut, lmcut-pc, hmax, blind (default: %(default)s)")
     p.add_argument("--reuse-labels", action="append", default=[], metavar="DIR",
                    help="take the labels another gnn_dataset folder already computed (repeatable)")
@@ -462,8 +587,9 @@ def main() -> None:
     meta = build(cfg, args.out, progress=not args.no_progress, reuse=args.reuse_labels)
     n = len(meta["kinds"])
     print(f"{n} states ({meta['kinds'].count('faithful')} faithful, {meta['kinds'].count('prepared')} prepared) "
-          f"in {time.perf_counter() - t0:.1f}s: states {meta['seconds_states']}s, labelling "
-          f"{meta['seconds_labelling']}s ({meta['label_cpu_seconds']} CPU s); wrote {args.out}")
+          f"in {time.perf_counter() - t0:.1f}s: faithful states {meta['seconds_faithful_states']}s, prepared "
+          f"states and labels {meta['seconds_collecting_and_labelling']}s ({meta['label_cpu_seconds']} CPU s "
+          f"labelling); wrote {args.out}")
 
 
 if __name__ == "__main__":

@@ -114,3 +114,25 @@ def test_joint_goal(three_room):
     s = m.state_from_atoms(["(robot-at fountain)", "(hand-free)", "(has-water jar_0)", "(at jar_0 fountain)"])
     assert goal.satisfied(s)
     assert not goal.satisfied(m.init)
+
+
+def test_augmented_build_is_the_same_for_any_number_of_workers(minimal, tmp_path):
+    """Prepared streams collected and labelled in two processes give the dataset one process gives."""
+    from learning.gnn_dataset import build
+
+    metas = []
+    for workers in (1, 2):
+        cfg = DatasetConfig(layout="grid", domain="domains/minimal", n_states=6, augmented=True, n_prepared=10,
+                            workers=workers, heuristic="hmax", min_clause_cost=1, prepared_streams=3)
+        build(cfg, tmp_path / str(workers), progress=False)
+        metas.append(json.loads((tmp_path / str(workers) / "meta.json").read_text()))
+    one, two = metas
+    assert one["kinds"] == ["faithful"] * 6 + ["prepared"] * 10
+    assert one["atoms"] == two["atoms"] and one["c_ap"] == two["c_ap"]
+    assert len({tuple(a) for a in one["atoms"]}) == 16                    # distinct states
+    lab = Labeller(minimal, "hmax")
+    for atoms, c_ap in list(zip(one["atoms"], one["c_ap"]))[6:9]:
+        assert c_ap == pytest.approx(lab.label(minimal.state_from_atoms(atoms)).c_ap)
+    rows = [json.loads((tmp_path / "1" / f"prepared-rollout-{i}.json").read_text()) for i in range(3)]
+    assert [r["seed"] for r in rows] == [1, 2, 3]
+    assert any(t["clause"] for r in rows for t in r["tasks"])              # tasks planned with a clause
