@@ -382,21 +382,27 @@ class PatternDatabases:
 
     def window(self, tasks: list, max_states: int = 1_000_000) -> list:
         """[(projection, [(size + 1,) cost-to-go per stage])] for completing `tasks` in order (a
-        clairvoyant window from its current stage on). The pattern holds the goal objects of as
-        many leading tasks as fit in max_states abstract states, alone and with each neighbour;
-        the tasks after those are not counted (cost >= 0)."""
+        clairvoyant window from its current stage on). Patterns: the goal objects of as many
+        leading tasks as fit in max_states abstract states, and each task's own goal objects,
+        each group alone and with each neighbour. Each
+        follows every stage of the window: a task's goal atoms outside the pattern are dropped
+        (an easier goal), so every pattern's cost-to-go is admissible and their maximum counts."""
         key = tuple(t.index for t in tasks)
         if key not in self._windows:
+            objects = lambda task: frozenset().union(*(self.goal_objects(op) for op in task.bindings))
             base, covered = frozenset(), 0
             for task in tasks:
-                objs = base.union(*(self.goal_objects(op) for op in task.bindings))
-                if self.projection(objs, max_states) is None:
+                if self.projection(base | objects(task), max_states) is None:
                     break
-                base, covered = objs, covered + 1
-            sets = [base] + [base | {x} for x in sorted(set().union(*(self.neighbours[o] for o in base)) - base,
-                                                         key=self.model.objects.index)] if covered else []
+                base, covered = base | objects(task), covered + 1
+            groups = ([base] if covered else []) + [objects(t) for t in tasks]
+            sets = {}
+            for group in groups:
+                near = set().union(*(self.neighbours[o] for o in group)) - group
+                for o in [group] + [group | {x} for x in sorted(near, key=self.model.objects.index)]:
+                    sets.setdefault(o)
             found = [p for p in (self.projection(o, max_states) for o in sets) if p is not None]
-            self._windows[key] = [(p, p.window_distances(tasks[:covered])) for p in found]
+            self._windows[key] = [(p, p.window_distances(tasks)) for p in found]
         return self._windows[key]
 
     def per_task(self, batch: np.ndarray, tasks=None) -> np.ndarray:
