@@ -177,7 +177,7 @@ def test_layered_relaxation_is_admissible_along_optimal_plans(two_room, joint, n
     window = [two_room.tasks.get(n) for n in names]
     exact = joint.plan(state, window, heuristic="lmcut")
     assert exact.cost == cost
-    layered = joint.plan(state, window)
+    layered = joint.plan(state, window, heuristic="layered")
     assert layered.cost == exact.cost and layered.expansions <= exact.expansions
     K = len(window)
     for rows, g in joint_states_along(joint, state, window, exact.plan):
@@ -227,3 +227,27 @@ def test_weighted_search_is_bounded_and_its_lower_bound_holds(two_room, joint):
     assert w.lower_bound <= best.cost == best.lower_bound
     cut = joint.plan(state, [water, coffee], max_states=5)     # interrupted: a bound, no plan
     assert cut.plan is None and not cut.complete and 0 < cut.lower_bound <= best.cost
+
+
+@pytest.mark.parametrize("names,cost", [
+    (["serve-water(servingtable)", "serve-water(servingtable)"], 2375),
+    pytest.param(["make-coffee(servingtable)", "wash(bowls)"], 650, marks=pytest.mark.slow),          # 1 min
+    pytest.param(["clear(servingtable)", "pick-place(plate_0, shelf)", "pick-place(cup_0, servingtable)"], 1000,
+                 marks=pytest.mark.slow)])
+def test_window_pattern_databases_are_admissible_along_optimal_plans(two_room, joint, names, cost):
+    # Every window pattern (the leading tasks' objects, each task's own, with neighbours) follows
+    # all stages; along an optimal plan (costs checked above against Fast Downward, LM-cut and by
+    # hand) none overestimates what is left to pay.
+    from planning.pdb import pattern_databases
+
+    state = two_room.reset_state(0)
+    window = [two_room.tasks.get(n) for n in names]
+    r = joint.plan(state, window)
+    assert r.cost == cost
+    pdb = pattern_databases(two_room, joint.bm.n_words)
+    K = len(window)
+    assert len(pdb.window(window)) > 1
+    for rows, g in joint_states_along(joint, state, window, r.plan):
+        stage = int(joint._stages(rows, K)[0])
+        for proj, togo in pdb.window(window[stage:]) if stage < K else []:
+            assert int(togo[0][proj.index(rows)[0]]) <= cost - g
