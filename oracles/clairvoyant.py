@@ -30,7 +30,7 @@ from planning.search import optimal_plan
 from planning.task_stream import PersistentWorld
 
 
-HEURISTICS = {"pdb": "max(lmcut of the stage-layered relaxation, pattern databases of the current stage)",
+HEURISTICS = {"pdb": "max(pattern databases of the current stage, the window's pattern databases over the stages left)",
               "layered": "lmcut of the stage-layered relaxation",
               "lmcut": "lmcut of the current stage", "hmax": "hmax of the current stage"}
 
