@@ -5,8 +5,9 @@ faithful   states the myopic oracle visits on seeded task streams (oracles.rollo
            the states along each executed plan, and each task's post-consumption world
            (a plan's last state before consumption is not kept: no task starts there).
 augmented  those, plus counterfactual *prepared* states the myopic plans never visit.
-           A second persistent stream is planned, optimally, for each task AND one
-           preparatory clause, and the states along those plans are kept.
+           Four more persistent task streams (seeds seed + 1 .. seed + 4, whatever the
+           number of workers) are planned, optimally, for each task AND one preparatory
+           clause, and the states along those plans are kept.
 
 The clause library is derived from the domain, with no names in Python. A literal
 (an atom or its negation) of a ground action's precondition is a clause (a) if
@@ -29,7 +30,9 @@ water restored. The joint plan is executed to its end, then the task's
 consumption is applied.
 
 Every state is labelled with C_AP by oracles.labelling (exact, all task
-instantiations, one multi-goal search per state), in parallel worker processes;
+instantiations, one multi-goal search per state), in the worker processes that
+also collect the prepared streams (the states found so far are labelled while
+the streams run);
 labels are checkpointed atomically in OUT/labels.partial.json, so an interrupted
 run resumes where it stopped. The result is a torch-geometric dataset:
 OUT/processed/data.pt (graphs from learning.graph with y = C_AP and the per-task
@@ -389,8 +392,9 @@ class Workers:
 
     def poll(self) -> None:
         """Take the finished label jobs."""
-        done = [j for j in self._pending if j.ready()]
-        self._pending = [j for j in self._pending if not j.ready()]
+        ready = [j.ready() for j in self._pending]          # asked once: a job may finish meanwhile
+        done = [j for j, r in zip(self._pending, ready) if r]
+        self._pending = [j for j, r in zip(self._pending, ready) if not r]
         for job in done:
             for state, value, costs, seconds, complete in job.get():
                 if not complete:
