@@ -18,9 +18,10 @@ that refills it, the water machine that fills it with coffee; a bowl and an
 apple with the knife). A task's estimate is the smallest over its bindings of
 the largest over that binding's patterns, or of the sum of per-object
 projections under a cost partitioning where the goal names several objects. A
-window of tasks (the clairvoyant's) gets projections onto its tasks' goal
-objects with the stage in the abstract state: the cost-to-go runs backwards
-from the last task through each task's goal and consumption.
+window of tasks (the clairvoyant's) gets projections onto its leading tasks'
+goal objects and onto each task's own, with the stage in the abstract state:
+the cost-to-go runs backwards from the last task through each task's goal and
+consumption.
 
 Locations are the objects the domain folder lists under its layout's rooms;
 "objects" are the others that occur in a fluent atom some action, consumption
@@ -384,9 +385,9 @@ class PatternDatabases:
         """[(projection, [(size + 1,) cost-to-go per stage])] for completing `tasks` in order (a
         clairvoyant window from its current stage on). Patterns: the goal objects of as many
         leading tasks as fit in max_states abstract states, and each task's own goal objects,
-        each group alone and with each neighbour. Each
-        follows every stage of the window: a task's goal atoms outside the pattern are dropped
-        (an easier goal), so every pattern's cost-to-go is admissible and their maximum counts."""
+        each group alone and with each neighbour. Each pattern follows every stage of the
+        window: a task's goal atoms outside the pattern are dropped (an easier goal), so every
+        pattern's cost-to-go is admissible and their maximum is too."""
         key = tuple(t.index for t in tasks)
         if key not in self._windows:
             objects = lambda task: frozenset().union(*(self.goal_objects(op) for op in task.bindings))
