@@ -325,8 +325,10 @@ class _InProcess:
         self.args = (cfg, counter)
 
     def apply_async(self, fn, args) -> _Done:
-        if _WORKER.get("cfg") != self.args[0]:
-            _init_worker(*self.args)
+        cfg, counter = self.args
+        if _WORKER.get("cfg") != cfg:
+            _init_worker(cfg, counter)
+        _WORKER["counter"] = counter            # this build's progress counter, not an earlier one's
         return _Done(fn(*args))
 
     def terminate(self) -> None:
