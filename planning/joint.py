@@ -115,9 +115,8 @@ class JointSearch:
                 if not sel.any():
                     continue
                 if heuristic == "pdb":
-                    out[sel] = pdb.per_task(batch[sel], [tasks[k].index])[:, 0]
-                    for proj, togo in pdb.window(tasks[k:]):
-                        out[sel] = np.maximum(out[sel], togo[0][proj.index(batch[sel])])
+                    out[sel] = np.maximum(pdb.per_task(batch[sel], [tasks[k].index])[:, 0],
+                                          pdb.window_estimate(batch[sel], tasks[k:]))
                 elif heuristic == "layered":
                     out[sel] = self.lmcut.of_relaxed(batch[sel], self.relaxation(tasks, k))
                 else:

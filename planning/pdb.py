@@ -61,7 +61,9 @@ def _changes(op) -> int:
 
 @dataclass
 class _Ops:
-    """Abstract operators as (V, W) word arrays; `edge` says whether it is an action (else consumption)."""
+    """Abstract operators as (V, W) word arrays; `edge` says whether it is an action (else consumption).
+    Row v stands for the ground actions members[starts[v]:starts[v + 1]] (all projected alike); its
+    cost is their cheapest."""
 
     pos: np.ndarray
     neg: np.ndarray
@@ -69,11 +71,22 @@ class _Ops:
     keep: np.ndarray
     cost: np.ndarray
     edge: np.ndarray
+    members: np.ndarray
+    starts: np.ndarray
+
+    def row_costs(self, costs: np.ndarray) -> np.ndarray:
+        """(V,) each row's cost under per-ground-action costs (consumption rows: 0)."""
+        out = np.zeros(len(self.edge), dtype=np.int64)
+        has = self.starts[1:] > self.starts[:-1]
+        if has.any():
+            out[has] = np.minimum.reduceat(costs[self.members], self.starts[:-1][has])
+        return out
 
 
 class Projection:
     """The model projected onto the agent's atoms and a set of objects: its reachable abstract states
-    (sorted keys and rows) and its transition graph, ready for goal distances."""
+    (sorted keys and rows) and its transition graph, labelled by operator, ready for goal
+    distances under the model's action costs or any other (a cost partitioning's share)."""
 
     def __init__(self, model, bm: BatchedModel, objects: frozenset, atom_mask: int, seeds: np.ndarray,
                  consumption: list, max_states: int, costs: list | None = None):
@@ -81,21 +94,29 @@ class Projection:
         self.objects = objects
         self.mask = bm.pack([atom_mask])[0]
         self._model, self._bm, self._atom_mask = model, bm, atom_mask
-        ops = _project_ops(model, bm, atom_mask, consumption, costs=costs)
-        self.keys, self.rows, src, dst, cost = _explore(bm, ops, seeds & self.mask, max_states)
+        self.costs = np.asarray(model.action_cost if costs is None else costs, dtype=np.int64)
+        self._ops = _project_ops(model, bm, atom_mask, consumption)
+        self.keys, self.rows, src, dst, label = _explore(bm, self._ops, seeds & self.mask, max_states)
         self.size = len(self.keys)
         if self.size:
-            # One edge per (source, target), its cheapest action, reversed for backward Dijkstra.
-            pair = dst * self.size + src
-            order = np.argsort(pair, kind="stable")
-            pair, cost = pair[order], cost[order]
-            first = np.flatnonzero(np.r_[True, pair[1:] != pair[:-1]])
-            cost = np.minimum.reduceat(cost, first) if len(first) else cost
-            pair = pair[first]
-            weight = np.where(cost > 0, cost, 1e-9).astype(float)       # a zero-cost action stays an edge
-            indptr = np.searchsorted(pair // self.size, np.arange(self.size + 1))
-            self._backward = csr_matrix((weight, pair % self.size, indptr), shape=(self.size, self.size))
+            # Edges (source, target, operator row), sorted by (target, source) for the reversed
+            # graph; each (source, target) keeps its cheapest operator under the costs given.
+            n_ops = len(self._ops.edge)
+            edge = np.sort((dst * self.size + src) * n_ops + label)        # < 2^63: size^2 * ops
+            edge = edge[np.r_[True, edge[1:] != edge[:-1]]]
+            pair, label = edge // n_ops, edge % n_ops
+            self._src, self._dst, self._label = pair % self.size, pair // self.size, label
+            self._first = np.flatnonzero(np.r_[True, pair[1:] != pair[:-1]])
+            pair = pair[self._first]
+            self._pairs = (pair % self.size, np.searchsorted(pair // self.size, np.arange(self.size + 1)))
+            self._backward = self._graph(self.costs)
         self.exhausted = self.size <= max_states
+
+    def _graph(self, costs: np.ndarray) -> csr_matrix:
+        """The reversed transition graph, each edge weighted by its cheapest operator under `costs`."""
+        cost = np.minimum.reduceat(self._ops.row_costs(costs)[self._label], self._first)
+        weight = np.where(cost > 0, cost, 1e-9).astype(float)          # a zero-cost action stays an edge
+        return csr_matrix((weight, *self._pairs), shape=(self.size, self.size))
 
     def index(self, batch: np.ndarray) -> np.ndarray:
         """(N,) abstract state of each packed state; `size` for one outside the explored space."""
@@ -110,13 +131,15 @@ class Projection:
         (INF_64: none reachable); the extra last entry, 0, answers states outside the space.
         The goal is a DNF as (K, W) pos/neg words (levels.goal_arrays)."""
         hold = satisfied(self.rows, pos & self.mask, neg & self.mask)
-        return self._backward_from(np.where(hold, 0, INF_64))
+        return self._backward_from(np.where(hold, 0, INF_64), self._backward)
 
-    def window_distances(self, tasks: list) -> list[np.ndarray]:
+    def window_distances(self, tasks: list, costs: np.ndarray | None = None) -> list[np.ndarray]:
         """[(size + 1,) int64 per stage k]: the cost from each abstract state to complete tasks k, k+1, ...
         in order, where completing a task moves on through its (projected) consumption. Backwards
         from the last task: stage k starts at the goal states of task k with the cost-to-go of
-        stage k + 1 from where the consumption leads."""
+        stage k + 1 from where the consumption leads. `costs`: per ground action (default the
+        projection's)."""
+        graph = self._backward if costs is None else self._graph(costs)
         after = np.zeros(self.size + 1, dtype=np.int64)
         out = [after]
         for task in reversed(tasks):
@@ -126,20 +149,36 @@ class Projection:
                 ok = np.flatnonzero(satisfied(self.rows, done.pos[v: v + 1], done.neg[v: v + 1]))
                 nxt = (self.rows[ok] & done.keep[v]) | done.add[v]
                 start[ok] = np.minimum(start[ok], after[self.index(nxt)])
-            after = self._backward_from(start)
+            after = self._backward_from(start, graph)
             out.append(after)
         return out[::-1]
 
-    def _backward_from(self, start: np.ndarray) -> np.ndarray:
+    def saturated(self, togo: list[np.ndarray], costs: np.ndarray) -> np.ndarray:
+        """Per ground action, the least cost that keeps these distances (under `costs`) valid: the
+        largest drop h(s) - h(t) over the abstract transitions s -> t it induces, at any stage,
+        between states from which the goal is reachable (Seipp & Helmert's saturated cost
+        function, floored at 0). What is left, costs - saturated, is free for other patterns."""
+        drop = np.zeros(len(self._ops.edge), dtype=np.int64)
+        for h in togo:
+            hs, ht = h[self._src], h[self._dst]
+            ok = (hs < INF_64) & (ht < INF_64)
+            np.maximum.at(drop, self._label[ok], hs[ok] - ht[ok])
+        drop = np.minimum(drop, self._ops.row_costs(costs))
+        need = np.zeros(len(costs), dtype=np.int64)
+        ops = self._ops
+        owner = np.repeat(np.arange(len(ops.edge)), np.diff(ops.starts))
+        np.maximum.at(need, ops.members, drop[owner])
+        return need
+
+    def _backward_from(self, start: np.ndarray, g: csr_matrix) -> np.ndarray:
         """(size + 1,) int64: min over abstract states t of start[t] + the cost from each state to t
-        (Dijkstra on the reversed graph from a source joined to each t by an edge of cost start[t])."""
+        (Dijkstra on the reversed graph g from a source joined to each t by an edge of cost start[t])."""
         out = np.full(self.size + 1, INF_64, dtype=np.int64)
         out[-1] = 0
         src = np.flatnonzero(start < INF_64)
         if not len(src):
             return out
         n = self.size
-        g = self._backward
         weight = np.where(start[src] > 0, start[src], 1e-9).astype(float)
         graph = csr_matrix((np.r_[g.data, weight], np.r_[g.indices, src], np.r_[g.indptr, g.indptr[-1] + len(src)]),
                            shape=(n + 1, n + 1))
@@ -149,18 +188,18 @@ class Projection:
         return out
 
 
-def _project_ops(model, bm, atom_mask: int, consumption: list, actions: bool = True, costs=None) -> _Ops:
+def _project_ops(model, bm, atom_mask: int, consumption: list, actions: bool = True) -> _Ops:
     """Every action variant and task consumption, restricted to the pattern's atoms.
 
     A conditional effect gives two operators: it fires (its condition's kept
     literals join the precondition) or it does not (if its condition is one kept
     literal, that literal's negation joins the precondition; otherwise nothing is
     known and both operators stay, an over-approximation)."""
-    rows = []     # (pos, neg, add, dele, cost, is action)
-    costs = model.action_cost if costs is None else costs
-    sources = [(op, costs[a], True) for op, a in zip(model.ops, model.op_action)] if actions else []
-    sources += [(op, 0, False) for op in consumption]
-    for op, cost, is_action in sources:
+    rows = []     # (pos, neg, add, dele, cost, is action, ground action or -1)
+    costs = model.action_cost
+    sources = [(op, costs[a], True, a) for op, a in zip(model.ops, model.op_action)] if actions else []
+    sources += [(op, 0, False, -1) for op in consumption]
+    for op, cost, is_action, action in sources:
         base = (op.pos & atom_mask, op.neg & atom_mask, op.add & atom_mask, op.dele & atom_mask)
         for fired in itertools.product((False, True), repeat=len(op.cond)):
             p, n, a_, d_ = base
@@ -170,20 +209,24 @@ def _project_ops(model, bm, atom_mask: int, consumption: list, actions: bool = T
                 elif not (cp | cn) & ~atom_mask and len(_bits(cp)) + len(_bits(cn)) == 1:
                     p, n = p | cn, n | cp
             if not p & n and (a_ & ~p or d_ & ~n or not is_action):
-                rows.append((p, n, a_, d_, cost, is_action))     # (an action changing nothing is a self-loop)
-    cheapest = {}
-    for r in rows:                                  # projections of different actions often coincide
-        if r[:4] + (r[5],) not in cheapest or r[4] < cheapest[r[:4] + (r[5],)][4]:
-            cheapest[r[:4] + (r[5],)] = r
-    rows = list(cheapest.values())
-    pack = lambda col: bm.pack([r[col] for r in rows])
-    return _Ops(pack(0), pack(1), pack(2), ~pack(3), np.array([r[4] for r in rows], dtype=np.int64),
-                np.array([r[5] for r in rows], dtype=bool))
+                rows.append((p, n, a_, d_, cost, is_action, action))   # (an action changing nothing is a self-loop)
+    merged = {}                                     # projections of different actions often coincide
+    for r in rows:
+        key = r[:4] + (r[5],)
+        cost, members = merged.get(key, (r[4], set()))
+        merged[key] = min(cost, r[4]), members | ({r[6]} if r[6] >= 0 else set())
+    keys = list(merged)
+    pack = lambda col: bm.pack([k[col] for k in keys])
+    members = [sorted(merged[k][1]) for k in keys]
+    return _Ops(pack(0), pack(1), pack(2), ~pack(3), np.array([merged[k][0] for k in keys], dtype=np.int64),
+                np.array([k[4] for k in keys], dtype=bool),
+                np.array([a for m in members for a in m], dtype=np.int64),
+                np.cumsum([0] + [len(m) for m in members]).astype(np.int64))
 
 
 def _explore(bm, ops: _Ops, seeds: np.ndarray, max_states: int):
     """Breadth-first exploration of the abstract space from its seeds: (sorted keys, their rows,
-    edge sources, edge targets, edge costs) with states numbered in key order; edges are the
+    edge sources, edge targets, edge operator rows) with states numbered in key order; edges are the
     actions' only (consumption only makes states reachable). States are deduplicated by 64-bit
     key and every key match is checked against the stored row (a collision raises)."""
     W = bm.n_words
@@ -191,7 +234,7 @@ def _explore(bm, ops: _Ops, seeds: np.ndarray, max_states: int):
     seen = StateTable(W)
     seen.add(state_keys(frontier), frontier, np.arange(len(frontier)))
     n = len(frontier)
-    src, dst, costs = [], [], []
+    src, dst, labels = [], [], []
     lo_id = 0
     while len(frontier) and n <= max_states:
         children, sources, edge = [], [], []
@@ -220,7 +263,7 @@ def _explore(bm, ops: _Ops, seeds: np.ndarray, max_states: int):
         act = ops.edge[v]
         src.append(np.concatenate(sources)[act])
         dst.append(ids[back[act]])
-        costs.append(ops.cost[v[act]])
+        labels.append(v[act])
         lo_id = n
         frontier = child[new]
         seen.add(ck[new], frontier, ids[new])
@@ -229,7 +272,7 @@ def _explore(bm, ops: _Ops, seeds: np.ndarray, max_states: int):
     rank = np.empty(n, dtype=np.int64)
     rank[ids] = np.arange(n)                                 # id -> position in key order
     cat = lambda parts, dtype: np.concatenate(parts) if parts else np.zeros(0, dtype=dtype)
-    return sorted_keys, rows, rank[cat(src, np.int64)], rank[cat(dst, np.int64)], cat(costs, np.int64)
+    return sorted_keys, rows, rank[cat(src, np.int64)], rank[cat(dst, np.int64)], cat(labels, np.int64)
 
 
 class PatternDatabases:
@@ -381,14 +424,21 @@ class PatternDatabases:
             self.projections[objects] = (p, budget)
         return p if p is not None and p.size <= budget else None
 
-    def window(self, tasks: list, max_states: int = 1_000_000) -> list:
-        """[(projection, [(size + 1,) cost-to-go per stage])] for completing `tasks` in order (a
-        clairvoyant window from its current stage on). Patterns: the goal objects of as many
-        leading tasks as fit in max_states abstract states, and each task's own goal objects,
-        each group alone and with each neighbour. Each pattern follows every stage of the
-        window: a task's goal atoms outside the pattern are dropped (an easier goal), so every
-        pattern's cost-to-go is admissible and their maximum is too."""
-        key = tuple(t.index for t in tasks)
+    def window(self, tasks: list, sample: np.ndarray | None = None, max_states: int = 1_000_000) -> list:
+        """[[(projection, [(size + 1,) cost-to-go per stage]), ...] per estimate, whose values add] for
+        completing `tasks` in order (a clairvoyant window from its current stage on); built once per
+        window, `sample` (packed states, e.g. the search's first) guides the choice below.
+
+        Patterns: the goal objects of as many leading tasks as fit in max_states abstract states,
+        and each task's own goal objects, each group alone and with each neighbour. Each pattern
+        follows every stage of the window: a task's goal atoms outside the pattern are dropped (an
+        easier goal), so every pattern's cost-to-go is admissible under the full costs, and so is
+        the sum of disjoint patterns under a saturated cost partitioning (`saturated_window`):
+        for each group in turn, the pattern with the largest estimate on the sample among those
+        that contain it and share no object with the ones already chosen (two coffees' cups and
+        water machine, then a fruit bowl's apple, bowl and knife), partitioned in each rotation of
+        that order (the first pattern takes the moves it needs). The estimate is the largest."""
+        key = (tuple(t.index for t in tasks), max_states)
         if key not in self._windows:
             objects = lambda task: frozenset().union(*(self.goal_objects(op) for op in task.bindings))
             base, covered = frozenset(), 0
@@ -403,8 +453,45 @@ class PatternDatabases:
                 for o in [group] + [group | {x} for x in sorted(near, key=self.model.objects.index)]:
                     sets.setdefault(o)
             found = [p for p in (self.projection(o, max_states) for o in sets) if p is not None]
-            self._windows[key] = [(p, p.window_distances(tasks)) for p in found]
+            alone = {p: p.window_distances(tasks) for p in found}
+            estimates = [[(p, togo)] for p, togo in alone.items()]
+            value = lambda p: (int(alone[p][0][p.index(sample)].min()) if sample is not None else 0, p.size)
+            order, used = [], frozenset()
+            for group in groups:
+                fits = [p for p in found if group <= p.objects and not p.objects & used]
+                if group and fits:
+                    order.append(max(fits, key=value))
+                    used |= order[-1].objects
+            for i in range(len(order) if len(order) > 1 else 0):     # each pattern first once
+                turn = order[i:] + order[:i]
+                estimates.append(self.saturated_window(tasks, turn, alone[turn[0]]))
+            self._windows[key] = estimates
         return self._windows[key]
+
+    def saturated_window(self, tasks: list, order: list, first: list | None = None) -> list:
+        """[(projection, cost-to-go per stage)] of a saturated cost partitioning over window patterns
+        (Seipp, Keller & Helmert 2020): each pattern in turn gets the costs the ones before it did
+        not need to keep their distances, so the distances add up admissibly. `first`: the first
+        pattern's distances under the full costs, if already known."""
+        rest = np.asarray(self.model.action_cost, dtype=np.int64).copy()
+        out = []
+        for i, p in enumerate(order):
+            togo = first if i == 0 and first is not None else p.window_distances(tasks, rest)
+            out.append((p, togo))
+            if i + 1 < len(order):
+                rest = rest - p.saturated(togo, rest)
+        return out
+
+    def window_estimate(self, batch: np.ndarray, tasks: list) -> np.ndarray:
+        """(N,) int64 admissible cost of completing `tasks` in order from each state of the batch (the
+        stage of tasks[0]): the largest over `window(tasks)`'s estimates (INF_64: a dead end)."""
+        out = np.zeros(len(batch), dtype=np.int64)
+        for parts in self.window(tasks, batch[:1]):
+            total = np.zeros(len(batch), dtype=np.int64)
+            for proj, togo in parts:
+                total += np.minimum(togo[0][proj.index(batch)], _PART_INF)
+            out = np.maximum(out, np.where(total >= _PART_INF, INF_64, total))
+        return out
 
     def per_task(self, batch: np.ndarray, tasks=None) -> np.ndarray:
         """(N, T') int64 admissible cost of each of the model's `tasks` (indices; default all)."""

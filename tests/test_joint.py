@@ -187,6 +187,30 @@ def test_layered_relaxation_is_admissible_along_optimal_plans(two_room, joint, n
             assert h <= exact.cost - g
 
 
+
+def test_saturated_window_partition_adds_disjoint_patterns_admissibly(two_room, joint):
+    # With a budget that holds one object at a time, the three pick-places' patterns are disjoint:
+    # alone the best says 575 at the start, partitioned (each rotation) they add to 775; every
+    # estimate stays below the cost still to pay along an optimal plan (1,125, A* with LM-cut).
+    from planning.pdb import pattern_databases
+
+    state = two_room.reset_state(0)
+    window = [two_room.tasks.get(n) for n in ["pick-place(plate_0, shelf)", "pick-place(cup_0, servingtable)",
+                                             "pick-place(cup_1, shelf)"]]
+    exact = joint.plan(state, window, heuristic="lmcut")
+    assert exact.cost == 1125
+    pdb = pattern_databases(two_room, joint.bm.n_words)
+    K = len(window)
+    value = lambda parts, rows: sum(int(togo[0][proj.index(rows)[0]]) for proj, togo in parts)
+    for rows, g in joint_states_along(joint, state, window, exact.plan):
+        stage = int(joint._stages(rows, K)[0])
+        estimates = pdb.window(window[stage:], rows, max_states=2000) if stage < K else []
+        if g == 0:
+            assert max(value(p, rows) for p in estimates if len(p) == 1) == 575
+            assert [value(p, rows) for p in estimates if len(p) > 1] == [775, 600, 525]
+        for parts in estimates:
+            assert value(parts, rows) <= exact.cost - g
+
 def test_layered_relaxation_sees_the_second_water(two_room, joint):
     # Per stage, LM-cut sees one water task (1450); layered over both: the first cup's water is
     # consumed, so the second needs water again; a jar filled once carries over (1500 < 2 fills).
@@ -249,5 +273,5 @@ def test_window_pattern_databases_are_admissible_along_optimal_plans(two_room, j
     assert len(pdb.window(window)) > 1
     for rows, g in joint_states_along(joint, state, window, r.plan):
         stage = int(joint._stages(rows, K)[0])
-        for proj, togo in pdb.window(window[stage:]) if stage < K else []:
-            assert int(togo[0][proj.index(rows)[0]]) <= cost - g
+        for parts in pdb.window(window[stage:], rows) if stage < K else []:
+            assert sum(int(togo[0][proj.index(rows)[0]]) for proj, togo in parts) <= cost - g

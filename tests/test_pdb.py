@@ -63,3 +63,25 @@ def test_a_state_outside_the_explored_space_gets_zero(two_room):
     keeping = [p for p, _ in pdb.projections.values() if p is not None and (p.mask & robot).any()]
     assert len(keeping) > 5
     assert all(p.index(batch)[0] == p.size for p in keeping)
+
+
+PICK_PLACES = ["pick-place(plate_0, shelf)", "pick-place(cup_0, servingtable)", "pick-place(cup_1, shelf)"]
+
+
+def test_saturated_costs_keep_the_distances_and_free_the_rest(two_room):
+    """A pattern's saturated costs (per action, the largest drop in its window distances over the
+    transitions the action induces) give it the very same distances, and leave cost for others:
+    the cup's pattern never needs the plate picked (placing it is what frees the hand). Every move
+    lies on some shortest path of the cup's, so the moves stay with the first pattern."""
+    pdb, _ = _estimates(two_room, two_room.init)
+    window = [two_room.tasks.get(n) for n in PICK_PLACES]
+    cup = pdb.projection(frozenset(["cup_0"]))
+    togo = cup.window_distances(window)
+    need = cup.saturated(togo, cup.costs)
+    assert (need >= 0).all() and (need <= cup.costs).all()
+    for full, saturated in zip(togo, cup.window_distances(window, need)):
+        assert (full == saturated).all()
+    picks = [a for a, name in enumerate(two_room.actions) if name.startswith("pick(plate_0,")]
+    moves = [a for a, name in enumerate(two_room.actions) if name.startswith("move(")]
+    assert len(picks) == 6 and (need[picks] == 0).all() and (cup.costs[picks] > 0).all()
+    assert (need[moves] == cup.costs[moves]).all()
