@@ -134,20 +134,24 @@ def epsilon(cfg: Config, step: int) -> float:
 
 
 def demonstrations(model, enc: Encoding, cfg: Config, r_goal: float, scale: float, terminal_reset: bool,
-                   progress: bool = True) -> Replay:
-    """The demo memory: every action transition of the first demo_tasks myopic-oracle outcomes (autos store none)."""
+                   progress: bool = True) -> tuple[Replay, np.ndarray]:
+    """The demo memory: every action transition of the first demo_tasks myopic-oracle outcomes (autos
+    store none), and per transition the discounted return the oracle's plan earned from there to its
+    task's completion (NaN where the oracle failed): what a myopic Q of the demonstrated action should
+    be at least, and not much more."""
     if cfg.demo_tasks <= 0:
-        return Replay(1, enc.n_words)
+        return Replay(1, enc.n_words), np.zeros(0)
     from oracles.rollouts import cached_rollout
     records = cached_rollout(model, cfg.demo_seed, cfg.demo_tasks, planner="internal", progress=progress)
     per_reset = model.config.get("stream", {}).get("tasks_per_reset", 50)
-    rows = []
+    rows, returns = [], []
     for rec in records:
         if rec.auto or not rec.plan:
             continue
         task = model.tasks.get(rec.task).index
         packed = enc.pack(rec.states)
         last = len(rec.plan) - 1
+        first = len(rows)
         for k, a in enumerate(rec.plan):
             done = k == last and rec.success
             s2 = enc.pack([rec.after])[0] if done else packed[k + 1]
@@ -156,10 +160,15 @@ def demonstrations(model, enc: Encoding, cfg: Config, r_goal: float, scale: floa
                 kind = TERMINAL if terminal_reset and rec.index % per_reset == per_reset - 1 else COMPLETE
             r = -model.action_cost[a] / scale + (r_goal if done else 0.0)
             rows.append((packed[k], task, a, r, s2, kind))
+        g = 0.0 if rec.success else float("nan")
+        for row in reversed(rows[first:]):
+            g = row[3] + cfg.gamma * g
+            returns.append(g)
+        returns[first:] = returns[first:][::-1]
     demos = Replay(max(1, len(rows)), enc.n_words)
     for row in rows:
         demos.add(*row)
-    return demos
+    return demos, np.array(returns)
 
 
 def greedy_evaluation(vf: ValueFunction, model, seed: int, n_tasks: int, gamma: float, r_goal: float,
@@ -221,7 +230,8 @@ class Trainer:
         self.boundary = BoundaryCache()        # target values of replayed completion states, per sync
         self.opt = torch.optim.Adam(self.net.parameters(), lr=cfg.lr, foreach=True)
         self.memory = Replay(cfg.buffer_size, self.enc.n_words)
-        self.demos = demonstrations(model, self.enc, cfg, self.r_goal, self.scale, self.terminal_reset, progress)
+        self.demos, self.demo_returns = demonstrations(model, self.enc, cfg, self.r_goal, self.scale,
+                                                       self.terminal_reset, progress)
 
         # -- line 2: the world and the task stream ----------------------------------------------
         self.stream = TaskStream(model, cfg.seed)
@@ -364,10 +374,26 @@ class Trainer:
             f.write(json.dumps(row) + "\n")
         return row
 
+    def demo_q_bias(self) -> float:
+        """Mean of Q(s, a) minus the return the myopic oracle's plan earned from there, over the
+        demonstrations: a myopic Q near its optimum sits a little above 0; a Q that diverges (the
+        deadly triad of bootstrapping, off-policy data and function approximation) far above."""
+        ok = np.flatnonzero(np.isfinite(self.demo_returns))
+        if not len(ok):
+            return float("nan")
+        d = self.demos.take(ok)
+        obs = torch.from_numpy(self.enc.observe(d["states"], d["tasks"]))
+        valid = torch.from_numpy(self.enc.valid_for(d["states"], d["tasks"]))
+        with torch.inference_mode():
+            q = self.net(obs, valid).gather(1, torch.from_numpy(d["actions"])[:, None])[:, 0].numpy()
+        return round(float(np.mean(q - self.demo_returns[ok])), 4)
+
     def _evaluate(self) -> None:
         self.net.eval()
         r = greedy_evaluation(ValueFunction(self.net, self.enc), self.model, 10_000 + self.cfg.seed,
                               self.cfg.eval_tasks, self.cfg.gamma, self.r_goal, self.scale)
+        if self.cfg.horizon == "myopic":
+            r["demo_q_bias"] = self.demo_q_bias()
         self.net.train()
         r["step"] = self.step
         with open(self.metrics, "a") as f:

@@ -38,6 +38,11 @@ def test_short_training_learns_the_first_task_and_resumes(minimal, tmp_path):
     assert len(trainer.demos) > 0
     kinds = trainer.demos.kinds[: len(trainer.demos)]
     assert (kinds == COMPLETE).sum() > 0 and (kinds == TERMINAL).sum() > 0   # clear completes, deliver ends
+    # the oracle's return from each demonstrated step: the reward at completion, discounted before it
+    g, r = trainer.demo_returns, trainer.demos.rewards[: len(trainer.demos)]
+    done = kinds != CONTINUE
+    assert np.isfinite(g).all() and np.allclose(g[done], r[done])
+    assert np.allclose(g[:-1][~done[:-1]], r[:-1][~done[:-1]] + trainer.cfg.gamma * g[1:][~done[:-1]], atol=1e-4)
     trainer.train()
     vf = ValueFunction(trainer.net, trainer.enc)
     assert greedy_clears(minimal, vf, range(20)) >= 18
@@ -45,6 +50,8 @@ def test_short_training_learns_the_first_task_and_resumes(minimal, tmp_path):
     logged = [r for r in rows if "step" in r and "eval" not in r]
     assert {"success_rate", "task_return", "selected_q", "td_target", "action_share"} <= set(logged[-1])
     assert (tmp_path / "best.pt").is_file() and (tmp_path / "last.pt").is_file()
+    final = [r["eval"] for r in rows if "eval" in r][-1]      # myopic: Q against the oracle's returns
+    assert abs(final["demo_q_bias"]) < 1.0, final
     # resume: a new trainer picks up the step, memory and world where the last one stopped
     again = Trainer(small_config(minimal, tmp_path, steps=1250), progress=False)
     with open(tmp_path / "metrics.jsonl", "a") as f:      # a row logged after the checkpoint, then interrupted
