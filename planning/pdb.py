@@ -104,8 +104,9 @@ class Projection:
             n_ops = len(self._ops.edge)
             edge = np.sort((dst * self.size + src) * n_ops + label)        # < 2^63: size^2 * ops
             edge = edge[np.r_[True, edge[1:] != edge[:-1]]]
-            pair, label = edge // n_ops, edge % n_ops
-            self._src, self._dst, self._label = pair % self.size, pair // self.size, label
+            pair = edge // n_ops
+            self._src, self._dst = (pair % self.size).astype(np.int32), (pair // self.size).astype(np.int32)
+            self._label = (edge % n_ops).astype(np.int32)
             self._first = np.flatnonzero(np.r_[True, pair[1:] != pair[:-1]])
             pair = pair[self._first]
             self._pairs = (pair % self.size, np.searchsorted(pair // self.size, np.arange(self.size + 1)))
