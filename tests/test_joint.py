@@ -147,6 +147,24 @@ def test_clairvoyant_window_timeout_falls_back_and_is_marked(two_room, joint):
     assert info["lower_bound"] <= best < info["window_cost"]
 
 
+def test_clairvoyant_chain_that_meets_the_proven_bound_is_optimal(two_room, monkeypatch):
+    # A search stopped after its first state has proved the root's f (575 for the plate to the
+    # shelf, exact); the chain costs the same, so the window is optimal, though bounded in time.
+    import functools
+
+    from oracles.clairvoyant import ClairvoyantOracle
+
+    oracle = ClairvoyantOracle(2)
+    oracle.start(two_room, None)
+    monkeypatch.setattr(oracle._joint, "plan", functools.partial(oracle._joint.plan, max_states=1))
+    state = two_room.reset_state(0)
+    plate, cup = (two_room.tasks.get(n) for n in ["pick-place(plate_0, shelf)", "pick-place(cup_0, servingtable)"])
+    info = oracle.plan(state, plate, [plate]).info
+    assert info["bounded"] and info["optimal"] and info["window_cost"] == info["lower_bound"] == 575
+    info = oracle.plan(state, plate, [cup]).info            # the chain (1,000) is above the bound (775)
+    assert info["bounded"] and not info["optimal"] and (info["lower_bound"], info["window_cost"]) == (775, 1000)
+
+
 def _run(model, state, plan):
     for a in plan:
         state = model.apply(state, a)
