@@ -157,9 +157,7 @@ class CostLevels:
         self.h = heuristic
         self.after_step = after_step
         self.max_states = max_states
-        self.deadline = None if time_limit is None else time.perf_counter() + time_limit
         self.closed = 0
-        self.f = 0                      # the level being closed: a lower bound on any goal's cost
         self.reopened = 0               # closings of a state already closed at a larger g
         self.exhausted = False          # True when every reachable state was closed
         self._closed = ClosedStates(bm.n_words)
@@ -170,6 +168,10 @@ class CostLevels:
         self._actions: list[np.ndarray] = []
         start_row = bm.pack([start])
         f0 = 0 if heuristic is None else int(heuristic(start_row)[0])
+        self.f = f0                     # the level being closed: a lower bound on any goal's cost
+        # The time limit bounds the search; what the heuristic builds on its first call (pattern
+        # databases, kept for later searches) is done before the clock starts.
+        self.deadline = None if time_limit is None else time.perf_counter() + time_limit
         self._open: dict[int, list] = {f0: [(start_row, np.array([-1]), np.array([-1]), np.array([0]))]}
         self._heap = [f0]
 
