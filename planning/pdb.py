@@ -32,6 +32,7 @@ world is in them; a state outside (e.g. hand-written) gets h = 0.
 from __future__ import annotations
 
 import itertools
+from collections import OrderedDict
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -45,6 +46,7 @@ from .heuristics import INF_64
 from .levels import StateTable, satisfied, state_keys
 
 CHUNK = 1 << 14             # abstract states expanded per numpy call
+WINDOW_CACHE_BYTES = 1 << 31    # window distance tables kept for windows of tasks seen again
 
 
 def _bits(mask: int) -> list[int]:
@@ -324,7 +326,7 @@ class PatternDatabases:
         self._tables: dict[tuple, list] = {}
         self._chunks, self._size, self._stacked = [np.zeros(1, dtype=np.int64)], 1, None
         self._plans: dict = {}
-        self._windows: dict = {}
+        self._windows: OrderedDict = OrderedDict()       # least recently used first, WINDOW_CACHE_BYTES in all
         self._additive: dict = {}
         for task in self.tasks:
             for op in task.bindings:
@@ -440,7 +442,9 @@ class PatternDatabases:
         water machine, then a fruit bowl's apple, bowl and knife), partitioned in each rotation of
         that order (the first pattern takes the moves it needs). The estimate is the largest."""
         key = (tuple(t.index for t in tasks), max_states)
-        if key not in self._windows:
+        if key in self._windows:
+            self._windows.move_to_end(key)
+        else:
             objects = lambda task: frozenset().union(*(self.goal_objects(op) for op in task.bindings))
             base, covered = frozenset(), 0
             for task in tasks:
@@ -467,7 +471,16 @@ class PatternDatabases:
                 turn = order[i:] + order[:i]
                 estimates.append(self.saturated_window(tasks, turn, alone[turn[0]]))
             self._windows[key] = estimates
+            self._evict_windows()
         return self._windows[key]
+
+    def _evict_windows(self) -> None:
+        """Forget the least recently used windows' distances beyond WINDOW_CACHE_BYTES (a K = 4 run
+        over ten sequences meets hundreds of windows; their tables took 13 GB)."""
+        size = lambda estimates: sum(t.nbytes for parts in estimates for _, togo in parts for t in togo)
+        total = sum(size(e) for e in self._windows.values())
+        while total > WINDOW_CACHE_BYTES and len(self._windows) > 1:
+            total -= size(self._windows.popitem(last=False)[1])
 
     def saturated_window(self, tasks: list, order: list, first: list | None = None) -> list:
         """[(projection, cost-to-go per stage)] of a saturated cost partitioning over window patterns
