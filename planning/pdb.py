@@ -64,14 +64,13 @@ def _changes(op) -> int:
 @dataclass
 class _Ops:
     """Abstract operators as (V, W) word arrays; `edge` says whether it is an action (else consumption).
-    Row v stands for the ground actions members[starts[v]:starts[v + 1]] (all projected alike); its
-    cost is their cheapest."""
+    Row v stands for the ground actions members[starts[v]:starts[v + 1]] (all projected alike); under
+    a cost function, its cost is their cheapest (`row_costs`)."""
 
     pos: np.ndarray
     neg: np.ndarray
     add: np.ndarray
     keep: np.ndarray
-    cost: np.ndarray
     edge: np.ndarray
     members: np.ndarray
     starts: np.ndarray
@@ -148,7 +147,7 @@ class Projection:
         for task in reversed(tasks):
             start = np.full(self.size, INF_64, dtype=np.int64)
             done = _project_ops(self._model, self._bm, self._atom_mask, list(task.bindings), actions=False)
-            for v in range(len(done.cost)):
+            for v in range(len(done.edge)):
                 ok = np.flatnonzero(satisfied(self.rows, done.pos[v: v + 1], done.neg[v: v + 1]))
                 nxt = (self.rows[ok] & done.keep[v]) | done.add[v]
                 start[ok] = np.minimum(start[ok], after[self.index(nxt)])
@@ -198,11 +197,10 @@ def _project_ops(model, bm, atom_mask: int, consumption: list, actions: bool = T
     literals join the precondition) or it does not (if its condition is one kept
     literal, that literal's negation joins the precondition; otherwise nothing is
     known and both operators stay, an over-approximation)."""
-    rows = []     # (pos, neg, add, dele, cost, is action, ground action or -1)
-    costs = model.action_cost
-    sources = [(op, costs[a], True, a) for op, a in zip(model.ops, model.op_action)] if actions else []
-    sources += [(op, 0, False, -1) for op in consumption]
-    for op, cost, is_action, action in sources:
+    rows = []     # (pos, neg, add, dele, is action, ground action or -1)
+    sources = [(op, True, a) for op, a in zip(model.ops, model.op_action)] if actions else []
+    sources += [(op, False, -1) for op in consumption]
+    for op, is_action, action in sources:
         base = (op.pos & atom_mask, op.neg & atom_mask, op.add & atom_mask, op.dele & atom_mask)
         for fired in itertools.product((False, True), repeat=len(op.cond)):
             p, n, a_, d_ = base
@@ -212,17 +210,16 @@ def _project_ops(model, bm, atom_mask: int, consumption: list, actions: bool = T
                 elif not (cp | cn) & ~atom_mask and len(_bits(cp)) + len(_bits(cn)) == 1:
                     p, n = p | cn, n | cp
             if not p & n and (a_ & ~p or d_ & ~n or not is_action):
-                rows.append((p, n, a_, d_, cost, is_action, action))   # (an action changing nothing is a self-loop)
+                rows.append((p, n, a_, d_, is_action, action))     # (an action changing nothing is a self-loop)
     merged = {}                                     # projections of different actions often coincide
     for r in rows:
-        key = r[:4] + (r[5],)
-        cost, members = merged.get(key, (r[4], set()))
-        merged[key] = min(cost, r[4]), members | ({r[6]} if r[6] >= 0 else set())
+        members = merged.setdefault(r[:5], set())
+        if r[5] >= 0:
+            members.add(r[5])
     keys = list(merged)
     pack = lambda col: bm.pack([k[col] for k in keys])
-    members = [sorted(merged[k][1]) for k in keys]
-    return _Ops(pack(0), pack(1), pack(2), ~pack(3), np.array([merged[k][0] for k in keys], dtype=np.int64),
-                np.array([k[4] for k in keys], dtype=bool),
+    members = [sorted(merged[k]) for k in keys]
+    return _Ops(pack(0), pack(1), pack(2), ~pack(3), np.array([k[4] for k in keys], dtype=bool),
                 np.array([a for m in members for a in m], dtype=np.int64),
                 np.cumsum([0] + [len(m) for m in members]).astype(np.int64))
 
@@ -243,7 +240,7 @@ def _explore(bm, ops: _Ops, seeds: np.ndarray, max_states: int):
         children, sources, edge = [], [], []
         for lo in range(0, len(frontier), CHUNK):
             part = frontier[lo: lo + CHUNK]
-            viol = np.zeros((len(part), len(ops.cost)), dtype=np.uint64)
+            viol = np.zeros((len(part), len(ops.edge)), dtype=np.uint64)
             for w in range(W):
                 s = part[:, w, None]
                 viol |= ~s & ops.pos[None, :, w]
