@@ -22,4 +22,4 @@ test-slow: $(VENV)/.installed
 	$(PY) -m pytest -m slow
 
 bench: $(VENV)/.installed
-	$(PY) -m planning.bench --layout three-room --out results/bench-three-room.json
+	$(PY) -m planning.domain.bench --layout three-room --out results/bench-three-room.json

@@ -26,7 +26,8 @@ import numpy as np
 from oracles.rollouts import cache_path, cached_rollout, load_records, replay
 from planning import cli
 from planning.atomic import write_json
-from planning.compiler import compile_domain
+from planning.domain.compiler import compile_domain
+from learning.reward import calibration_path, cost_scale
 from planning.errors import DomainError
 
 # Table A.2 / §5.2.4; the thesis gives D_max only for the two-room restaurant.
@@ -39,16 +40,6 @@ def discounted_requirement(costs, gamma: float, cost_scale: float = 1.0) -> floa
     """D = sum_t gamma^(t-T) c_t for a plan's action costs (PDDL units), in RL units."""
     T = len(costs)
     return float(sum(gamma ** (t - T) * c / cost_scale for t, c in enumerate(costs, start=1)))
-
-
-def cost_scale(model) -> float:
-    """PDDL cost units per RL reward unit (domain.toml [reward] cost_scale, default 1)."""
-    return float(model.config.get("reward", {}).get("cost_scale", 1))
-
-
-def calibration_path(model, results_dir="results") -> Path:
-    """Where the calibration of a layout is written: results/calibration-<layout>.json."""
-    return Path(results_dir) / f"calibration-{model.layout}.json"
 
 
 def calibrate(model, records, gamma: float = 0.95, margin: float = 0.2) -> dict:
@@ -83,27 +74,6 @@ def calibrate(model, records, gamma: float = 0.95, margin: float = 0.2) -> dict:
     }
 
 
-def goal_reward(model, results_dir="results") -> float:
-    """The completion reward R_goal: domain.toml [reward] goal_reward, else the layout's calibration file."""
-    reward = model.config.get("reward", {})
-    if "goal_reward" in reward:
-        return float(reward["goal_reward"])
-    path = calibration_path(model, results_dir)
-    if not path.is_file():
-        raise DomainError(f"{model.name} {model.layout}",
-                          f"no completion reward: set [reward] goal_reward in {model.files['config']} "
-                          f"or run `python -m experiments.calibrate --domain {model.folder} "
-                          f"--layout {model.layout}` (writes {path})")
-    try:
-        data = json.loads(path.read_text())
-        value, domain, layout = float(data["r_goal"]), data.get("domain"), data.get("layout")
-    except (OSError, ValueError, KeyError, TypeError) as e:
-        raise DomainError(path, f"unreadable calibration ({e!r}); rerun experiments.calibrate") from None
-    if (domain, layout) != (model.name, model.layout):
-        raise DomainError(path, f"calibrates {domain} {layout}, not {model.name} {model.layout}")
-    return value
-
-
 def stored_records(model, seed: int, n_tasks: int, planner: str, cache_dir) -> list:
     """Up to n_tasks records already in the rollout cache, without planning any more."""
     path = cache_path(model, seed, planner, cache_dir)
@@ -136,7 +106,7 @@ def report(result: dict) -> str:
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0])
+    p = cli.parser(__doc__.splitlines()[0], seed=True)
     p.add_argument("--tasks", type=int, default=2000, help="tasks of the myopic rollout (default: %(default)s)")
     p.add_argument("--gamma", type=float, default=0.95, help="discount of the calibration (default: %(default)s)")
     p.add_argument("--margin", type=float, default=0.2, help="m in R_goal = (1 + m) D_max (default: %(default)s)")

@@ -1,8 +1,9 @@
 """Demonstration: a seeded task stream in the persistent restaurant, each task solved optimally alone.
 
 This is the myopic agent of the thesis with our exact in-process planner (A*
-with LM-cut on the compiled model): every plan is optimal for its own task and
-blind to the next, and the world it leaves behind is where the next task starts.
+with the layout's pattern databases on the compiled model): every plan is
+optimal for its own task and blind to the next, and the world it leaves behind
+is where the next task starts.
 
     python -m experiments.demo --layout two-room --tasks 50
 """
@@ -12,18 +13,22 @@ import time
 
 from planning import cli
 from planning.atomic import write_json
-from planning.batched import BatchedModel
-from planning.compiler import compile_domain
-from planning.search import optimal_plan
-from planning.task_stream import PersistentWorld, draw_tasks
+from oracles.myopic import MyopicOracle
+from planning.domain.compiler import compile_domain
+from planning.errors import DomainError
+from planning.world.runner import play_task
+from planning.world.task_stream import PersistentWorld, draw_tasks
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0])
+    p = cli.parser(__doc__.splitlines()[0], seed=True)
     p.add_argument("--tasks", type=int, default=50, help="tasks in the stream (default: %(default)s)")
     args = p.parse_args()
+    if args.tasks < 1:
+        raise DomainError("--tasks", f"must be at least 1, not {args.tasks}")
     model = compile_domain(args.domain, args.layout)
-    bm = BatchedModel(model)
+    planner = MyopicOracle("internal")
+    planner.start(model, None)
     world = PersistentWorld(model, reset_seed=args.seed)
     print(f"{model.name} {model.layout}: {model.n_atoms} atoms, {model.n_actions} ground actions, "
           f"{len(model.tasks)} task instances; seed {args.seed}\n")
@@ -31,18 +36,13 @@ def main() -> None:
     start = time.perf_counter()
     for i, task in enumerate(draw_tasks(model, args.seed, args.tasks)):
         t0 = time.perf_counter()
-        if world.begin(task):
+        info = play_task(world, planner, task)
+        if not info:
             plan_text = "(already satisfied)"
+        elif "executed" not in info:
+            plan_text = f"(no plan: {info.get('status')})"
         else:
-            result = optimal_plan(bm, world.state, task)
-            if result.plan is None:
-                world.abandon()
-                plan_text = "(no plan)"
-            else:
-                for a in result.plan:
-                    if world.act(a).abandoned:
-                        break
-                plan_text = ", ".join(model.actions[a] for a in result.plan)
+            plan_text = ", ".join(model.actions[a] for a in info["executed"])
         o = world.outcomes[-1]
         print(f"{i:3d} {o.task:34s} cost {o.cost:5d}  actions {o.actions:2d}  "
               f"{time.perf_counter() - t0:5.2f}s  {plan_text}")

@@ -19,9 +19,10 @@ import numpy as np
 
 from learning.dqn import Config, Trainer, domain_defaults
 from learning.qnet import ValueFunction
+from learning.reward import step_reward
 from planning import cli
 from planning.atomic import write_json
-from planning.compiler import compile_domain
+from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 
 FIRST, TARGETS = "clear(c)", ("a", "b")
@@ -55,7 +56,7 @@ def exact_placement_q(model, cell: str, gamma: float, r_goal: float, scale: floa
     s = placement_state(model, cell)
     a = model.action(f"place(apple, {cell})")
     after = model.tasks.get(FIRST).consume(model.apply(s, a))
-    q = -model.action_cost[a] / scale + r_goal
+    q = step_reward(model.action_cost[a], True, scale, r_goal)
     if horizon == "anticipatory":
         p = model.tasks.probabilities / model.tasks.probabilities.sum()
         q += gamma * sum(p[t.index] * exact_task_value(model, after, t, gamma, r_goal, scale)
@@ -91,10 +92,10 @@ def softmax_share_b(model, vf: ValueFunction, episodes: int, temperature: float,
     return sum(w == "b" for w in placed) / max(1, len(placed))
 
 
-def run(domain: str, seed: int, steps: int | None, out_dir: str, episodes: int = 1000,
+def run(domain: str, seed: int, steps: int | None, out_dir: str, episodes: int = 1000, layout: str | None = None,
         temperature: float = 1.0, progress: bool = True) -> dict:
     """Train both agents and measure them; the JSON of the --out file."""
-    model = compile_domain(domain, None)
+    model = compile_domain(domain, layout)
     result = {}
     for horizon in ("myopic", "anticipatory"):
         values = domain_defaults(model, horizon)
@@ -125,13 +126,13 @@ def run(domain: str, seed: int, steps: int | None, out_dir: str, episodes: int =
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0])
+    p = cli.parser(__doc__.splitlines()[0], seed=True)
     p.set_defaults(domain="domains/minimal")
     p.add_argument("--steps", type=int, default=None, help="training steps per agent (default: domain.toml)")
     p.add_argument("--runs", default="runs/minimal", help="folder of the two training runs")
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args()
-    r = run(args.domain, args.seed, args.steps, args.runs, progress=not args.no_progress)
+    r = run(args.domain, args.seed, args.steps, args.runs, layout=args.layout, progress=not args.no_progress)
     print(f"{'agent':13s} {'Q(place A)':>11s} {'Q(place B)':>11s} {'gap':>7s} {'share B':>8s}   "
           f"exact: {'Q(A)':>6s} {'Q(B)':>6s} {'gap':>6s}   thesis: gap, share B")
     for h in ("myopic", "anticipatory"):

@@ -30,7 +30,7 @@ import torch
 
 from planning import cli
 from planning.atomic import write_json
-from planning.compiler import compile_domain
+from planning.domain.compiler import compile_domain
 
 from .dqn import HORIZONS, Config, Trainer, domain_defaults
 from .qnet import COMPLETE, BoundaryCache, td_targets
@@ -39,19 +39,9 @@ from .replay import mixed_batch
 
 def acting_rate(trainer: Trainer, steps: int, eps: float) -> float:
     """Environment steps per second of ε-greedy acting with storage (no updates)."""
-    world = trainer.world
-    if world.task is None:
-        trainer._next_task()
     t = time.perf_counter()
     for _ in range(steps):
-        state, task = world.state, world.task.index
-        a = trainer.act(state, task, eps)
-        step = world.act(a)
-        r = -step.cost / trainer.scale + (trainer.r_goal if step.completed else 0.0)
-        trainer._store(state, task, a, r, world.state, COMPLETE if step.completed else 0)
-        if step.completed or step.abandoned:
-            trainer._finish_task(step.completed)
-            trainer._next_task()
+        trainer.env_step(eps)
     return steps / (time.perf_counter() - t)
 
 
@@ -109,7 +99,7 @@ def bench_horizon(model_dir: str, layout: str, horizon: str, steps: int, updates
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0])
+    p = cli.parser(__doc__.splitlines()[0], seed=True)
     p.add_argument("--steps", type=int, default=2000, help="acting steps timed (default 2000)")
     p.add_argument("--updates", type=int, default=1000,
                    help="updates timed per regime (default 1000: one target-sync period)")

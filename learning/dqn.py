@@ -21,6 +21,8 @@ command) and DIR/best.pt (the network with the best greedy evaluation on 100 tas
 """
 from __future__ import annotations
 
+import argparse
+
 import json
 import math
 import random
@@ -35,12 +37,12 @@ import torch
 import torch.nn.functional as F
 from tqdm import tqdm
 
-from experiments.calibrate import goal_reward
+from learning.reward import cost_scale, goal_reward, step_reward
 from planning import cli
 from planning.atomic import write_text
-from planning.compiler import compile_domain
+from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
-from planning.task_stream import PersistentWorld, TaskStream
+from planning.world.task_stream import PersistentWorld, TaskStream
 
 from .encoding import Encoding
 from .qnet import (COMPLETE, CONTINUE, TERMINAL, BoundaryCache, ValueFunction, build_network, masked_max, network_payload,
@@ -89,7 +91,7 @@ class Config:
     train_every: int = 1
     """environment steps per gradient update"""
     goal_reward: float | None = None
-    """completion reward R_goal (RL units); None: experiments.calibrate.goal_reward"""
+    """completion reward R_goal (RL units); None: learning.reward.goal_reward"""
     demo_tasks: int = 500
     """myopic-oracle task outcomes seeded into the demo memory (Appendix A.1)"""
     demo_seed: int = 0
@@ -158,7 +160,7 @@ def demonstrations(model, enc: Encoding, cfg: Config, r_goal: float, scale: floa
             kind = CONTINUE
             if done:
                 kind = TERMINAL if terminal_reset and rec.index % per_reset == per_reset - 1 else COMPLETE
-            r = -model.action_cost[a] / scale + (r_goal if done else 0.0)
+            r = step_reward(model.action_cost[a], done, scale, r_goal)
             rows.append((packed[k], task, a, r, s2, kind))
         g = 0.0 if rec.success else float("nan")
         for row in reversed(rows[first:]):
@@ -188,7 +190,7 @@ def greedy_evaluation(vf: ValueFunction, model, seed: int, n_tasks: int, gamma: 
         while world.task is not None:
             a = int(vf.greedy([world.state], task.index)[0])
             step = world.act(a)
-            g += gamma ** k * (-step.cost / scale + (r_goal if step.completed else 0.0))
+            g += gamma ** k * step_reward(step.cost, step.completed, scale, r_goal)
             k += 1
         returns.append(g)
     outs = world.outcomes
@@ -210,7 +212,7 @@ class Trainer:
         cfg.layout = model.layout
         self.out = Path(cfg.out or f"runs/dqn/{model.name}-{model.layout}-{cfg.horizon}-seed{cfg.seed}")
         cfg.out = str(self.out)
-        self.scale = float(model.config.get("reward", {}).get("cost_scale", 1))
+        self.scale = cost_scale(model)
         self.r_goal = float(cfg.goal_reward if cfg.goal_reward is not None else goal_reward(model))
         cfg.goal_reward = self.r_goal
         stream_cfg = model.config.get("stream", {})
@@ -311,6 +313,26 @@ class Trainer:
             return int(masked_max(self.net(obs, torch.from_numpy(valid)), torch.from_numpy(valid))[1][0])
 
     # ---- the loop (lines 3-28) -----------------------------------------------------------------
+    def env_step(self, eps: float) -> None:
+        """One environment step: act ε-greedily, store the transition, and move on when the task ends."""
+        if self.world.task is None:
+            self._next_task()
+        state, task = self.world.state, self.world.task.index
+        a = self.act(state, task, eps)                                            # line 5
+        step = self.world.act(a)                                                  # line 6
+        r = step_reward(step.cost, step.completed, self.scale, self.r_goal)
+        kind = CONTINUE                                                           # within task or timeout
+        if step.completed:
+            kind = TERMINAL if self._last_in_episode() else COMPLETE
+        self._store(state, task, a, r, self.world.state, kind)                   # line 7
+        self.type_counts[self.type_of[a]] += 1
+        self.task_return += self.cfg.gamma ** self.task_k * r
+        self.task_k += 1
+        self.step += 1
+        if step.completed or step.abandoned:                                     # lines 21, 25-27
+            self._finish_task(step.completed)
+            self._next_task()
+
     def train(self) -> dict:
         """Run until cfg.steps, logging, evaluating and checkpointing; returns the last metrics row."""
         cfg = self.cfg
@@ -320,21 +342,7 @@ class Trainer:
                    unit="step", disable=not self.progress, smoothing=0.05)
         row, t0, s0, u0, updates = {}, time.perf_counter(), self.step, 0, 0
         while self.step < cfg.steps:
-            state, task = self.world.state, self.world.task.index
-            a = self.act(state, task, epsilon(cfg, self.step))                  # line 5
-            step = self.world.act(a)                                              # line 6
-            r = -step.cost / self.scale + (self.r_goal if step.completed else 0.0)
-            kind = CONTINUE                                                       # within task or timeout
-            if step.completed:
-                kind = TERMINAL if self._last_in_episode() else COMPLETE
-            self._store(state, task, a, r, self.world.state, kind)               # line 7
-            self.type_counts[self.type_of[a]] += 1
-            self.task_return += cfg.gamma ** self.task_k * r
-            self.task_k += 1
-            self.step += 1
-            if step.completed or step.abandoned:                                 # lines 21, 25-27
-                self._finish_task(step.completed)
-                self._next_task()
+            self.env_step(epsilon(cfg, self.step))                                # lines 5-7, 21, 25-27
             if self.step >= cfg.learning_starts and self.step % cfg.train_every == 0:
                 self.update()                                                     # lines 8-20
                 updates += 1
@@ -460,7 +468,7 @@ class Trainer:
 
 def make_config(args) -> Config:
     """Config from Table A.2, then domain.toml [training], then the command line."""
-    model = compile_domain(args.domain, args.layout)
+    model = compile_domain(args.domain or Config.domain, args.layout)
     values = {**domain_defaults(model, args.horizon)}
     for f in fields(Config):
         v = getattr(args, f.name, None)
@@ -471,17 +479,9 @@ def make_config(args) -> Config:
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0])
-    p.add_argument("--horizon", required=True, choices=HORIZONS)
-    p.add_argument("--steps", type=int, default=None, help="environment steps (default 500,000)")
-    p.add_argument("--train-every", dest="train_every", type=int, default=None, help="steps per update (default 1)")
-    p.add_argument("--demo-tasks", dest="demo_tasks", type=int, default=None,
-                   help="demonstrated task outcomes (default: domain.toml [training])")
-    p.add_argument("--goal-reward", dest="goal_reward", type=float, default=None, help="R_goal (RL units)")
-    p.add_argument("--eps-decay-steps", dest="eps_decay_steps", type=int, default=None,
-                   help="steps of the exponential ε decay (default 100,000)")
-    p.add_argument("--eval-every", dest="eval_every", type=int, default=None, help="steps between greedy evaluations")
-    p.add_argument("--checkpoint-every", dest="checkpoint_every", type=int, default=None)
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    cli.add_dataclass_options(p, Config, skip=("horizon",))
+    p.add_argument("--horizon", required=True, choices=HORIZONS, help=cli.field_docs(Config)["horizon"])
     p.add_argument("--fresh", action="store_true", help="ignore an existing last.pt and start over")
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args()

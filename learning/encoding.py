@@ -11,7 +11,7 @@ kind, bread spread (each a one-hot of a group of atoms), then four task fields
 atoms themselves are the features (70 two-room, 78 three-room), so no domain
 knowledge enters Python; the kind fields are static facts and drop out.
 
-Actions. The factored labels of `planning.factored` (Table A.1), plus one extra
+Actions. The factored labels of `planning.domain.factored` (Table A.1), plus one extra
 pseudo-action AUTO = n_actions: the internal auto_complete event. A task that
 already holds when it is drawn completes at zero cost with reward R_goal; AUTO
 is then the *only* valid action (and never valid otherwise), so
@@ -23,8 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from planning.batched import BatchedModel
-from planning.factored import factored_actions
+from planning.domain.batched import BatchedModel
+from planning.domain.factored import factored_actions
 
 AUTO_TYPE = "auto_complete"
 

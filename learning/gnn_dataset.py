@@ -21,7 +21,7 @@ preparation. Also a clause: every pair of positive precondition atoms of one
 ground action whose first argument is the same object (refill-water's "the jar
 holds water" and "the jar is at l": a filled jar parked where water is drawn)
 that the action leaves standing.
-Literals about the agent itself (learning.graph.agent_predicates: its position,
+Literals about the agent itself (planning.domain.roles.agent_predicates: its position,
 hand and grip) are left out: they do not outlast the next task. At each task a clause is drawn uniformly among
 those that are false in the current world and whose relaxed cost (h_max from that
 world) is at least `min_clause_cost`, so it means real preparation: the jar
@@ -56,7 +56,8 @@ from tqdm import tqdm
 from planning import cli
 from planning.atomic import write_json
 from planning.errors import DomainError
-from planning.grounding import atom_text
+from oracles.rollouts import faithful_states
+from planning.domain.grounding import atom_text
 
 CHECKPOINT_SECONDS = 10.0
 
@@ -80,36 +81,12 @@ class DatasetConfig:
 
 
 # ---- states ------------------------------------------------------------------------------
-def record_states(records) -> list[int]:
-    """The worlds a rollout passes through: fresh worlds, states along each plan, post-consumption worlds."""
-    out = []
-    for i, rec in enumerate(records):
-        if i == 0 or rec.reset_seed is not None:
-            out.append(rec.states[0])
-        out += rec.states[1:-1]
-        out.append(rec.after)
-    return out
-
-
-def faithful_states(model, n: int, seed: int = 0, progress: bool = True) -> list[int]:
-    """n distinct states visited by the myopic oracle (oracles.rollouts.cached_rollout, planner internal)."""
-    from oracles.rollouts import cached_rollout
-
-    n_tasks = max(8, n // 4)
-    while True:
-        records = cached_rollout(model, seed, n_tasks, progress=progress)
-        states = list(dict.fromkeys(record_states(records)))
-        if len(states) >= n:
-            return states[:n]
-        n_tasks = int(n_tasks * 1.5) + 1
-
-
 class ClauseLibrary:
     """Preparatory goal clauses derived from the domain's action preconditions (see the module docstring)."""
 
     def __init__(self, model, min_cost: int = 200):
         """`min_cost`: the cheapest restoring action that makes a used-up precondition a resource."""
-        from learning.graph import agent_predicates
+        from planning.domain.roles import agent_predicates
 
         self.model, self.min_cost = model, min_cost
         agent = agent_predicates(model)
@@ -168,7 +145,7 @@ class JointGoal:
     """A task's goal AND a clause: the task's DNF with the clause added to every conjunction."""
 
     def __init__(self, task, pos: int, neg: int):
-        from planning.model import Op
+        from planning.domain.model import Op
 
         self.task, self.name = task, f"{task.name} + clause"
         self.bindings = tuple(Op(o.pos | pos, o.neg | neg, 0, 0) for o in task.bindings)
@@ -186,10 +163,10 @@ def prepared_states(model, n: int, cfg: DatasetConfig, cache: Path, progress: bo
     The executed plans are kept in `cache` (written atomically), so a rerun replays them.
     `counter` (a multiprocessing Value) counts the states found, for a progress bar elsewhere.
     """
-    from planning.batched import BatchedModel
-    from planning.heuristics import HMax
-    from planning.search import optimal_plan
-    from planning.task_stream import TaskStream
+    from planning.domain.batched import BatchedModel
+    from planning.heuristics.hmax import HMax
+    from planning.search.optimal import optimal_plan
+    from planning.world.task_stream import TaskStream
 
     seed = cfg.seed + 1 + stream
     bm = BatchedModel(model)
@@ -285,7 +262,7 @@ _WORKER: dict = {}
 
 def _init_worker(cfg: DatasetConfig, counter) -> None:
     from oracles.labelling import Labeller
-    from planning.compiler import compile_domain
+    from planning.domain.compiler import compile_domain
 
     model = compile_domain(cfg.domain, cfg.layout)
     _WORKER.update(cfg=cfg, model=model, counter=counter,
@@ -510,7 +487,7 @@ def build(cfg: DatasetConfig, out, progress: bool = True, reuse=()) -> dict:
 
     The prepared states come from cfg.prepared_streams independent streams, collected in the
     worker processes while the states found so far are labelled beside them."""
-    from planning.compiler import compile_domain
+    from planning.domain.compiler import compile_domain
 
     out = Path(out)
     model = compile_domain(cfg.domain, cfg.layout)
@@ -566,7 +543,7 @@ def _prepared(work: Workers, cfg: DatasetConfig, n: int, faithful: list[int], ou
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0])
+    p = cli.parser(__doc__.splitlines()[0], seed=True)
     p.add_argument("--augmented", action="store_true", help="add counterfactual prepared states")
     p.add_argument("--n-states", type=int, default=2000, help="faithful states (default: %(default)s)")
     p.add_argument("--n-prepared", type=int, default=None, help="prepared states (default: 3 x n-states)")
@@ -581,7 +558,7 @@ def main() -> None:
         raise DomainError("--out", "a dataset folder is required")
     if args.n_states < 1:
         raise DomainError("--n-states", f"{args.n_states} is not a positive number of states")
-    from planning.compiler import compile_domain
+    from planning.domain.compiler import compile_domain
     layout = compile_domain(args.domain, args.layout).layout
     cfg = DatasetConfig(layout=layout, domain=args.domain, n_states=args.n_states, augmented=args.augmented,
                         n_prepared=args.n_prepared, seed=args.seed, workers=args.workers,

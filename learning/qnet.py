@@ -183,8 +183,9 @@ class ValueFunction:
     Inference runs on a numpy snapshot of the weights taken at construction.
     """
 
-    def __init__(self, net: FactoredQNet, enc: Encoding):
-        self.net, self.enc = net, enc
+    def __init__(self, net: FactoredQNet, enc: Encoding, gamma: float = 0.97):
+        """`gamma`: the discount the network was trained with (the search discounts its prefix costs by it)."""
+        self.net, self.enc, self.gamma = net, enc, gamma
         self.fast = NumpyQ(net)
 
     def q_values(self, states, task) -> np.ndarray:
@@ -376,4 +377,4 @@ def load_value_function(path, model) -> ValueFunction:
     except RuntimeError as e:
         raise DomainError(path, f"weights do not fit the network ({str(e).splitlines()[0]})") from None
     net.eval()
-    return ValueFunction(net, enc)
+    return ValueFunction(net, enc, float(payload.get("config", {}).get("gamma", 0.97)))

@@ -22,37 +22,60 @@ import statistics
 import time
 from pathlib import Path
 
-from experiments.agents import Planner, Reply
+from oracles.myopic import MyopicOracle, reference_path
 from planning import cli
-from planning.batched import BatchedModel
-from planning.compiler import compile_domain
-from planning.joint import JointSearch
-from planning.search import optimal_plan
-from planning.task_stream import PersistentWorld
+from planning.errors import DomainError
+from planning.heuristics import names
+from planning.domain.batched import BatchedModel
+from planning.domain.compiler import compile_domain
+from planning.search.joint import JointSearch
+from planning.search.optimal import optimal_plan
+from planning.world.agents import Planner, Reply
+from planning.world.runner import default_out, evaluate, play_task
+from planning.world.task_stream import PersistentWorld
 
 
-HEURISTICS = {"pdb": "max(pattern databases of the current stage, the window's pattern databases over the stages left)",
-              "layered": "lmcut of the stage-layered relaxation",
-              "lmcut": "lmcut of the current stage", "hmax": "hmax of the current stage"}
+# The window search as results files record it, per heuristic of the registry's "window" rows.
+WINDOW_SEARCH = {"pdb": "max(pattern databases of the current stage, the window's pattern databases over the stages left)",
+                 "layered": "lmcut of the stage-layered relaxation",
+                 "lmcut": "lmcut of the current stage", "hmax": "hmax of the current stage"}
 
 
 class ClairvoyantOracle(Planner):
     """Optimal joint plans over a sliding window of K revealed tasks."""
 
+    @classmethod
+    def options(cls, p) -> None:
+        p.add_argument("--K", type=int, default=3, help="tasks planned jointly (default: %(default)s)")
+        p.add_argument("--time-limit", type=float, default=600.0, help="seconds per window (default: %(default)s)")
+        p.add_argument("--heuristic", default="pdb", choices=names("window"),
+                       help="joint search heuristic (default: %(default)s)")
+
+    @classmethod
+    def from_args(cls, args, model=None) -> "ClairvoyantOracle":
+        return cls(args.K, args.time_limit, args.heuristic)
+
     def __init__(self, K: int, time_limit: float = 600.0, heuristic: str = "pdb", log: str | None = None):
         """`heuristic`: the joint search's (see JointSearch.plan); `log`: a JSON-lines file of windows."""
         if K < 1:
-            raise ValueError("K must be at least 1")
-        if heuristic not in HEURISTICS:
-            raise ValueError(f"unknown heuristic {heuristic}, choose one of {', '.join(HEURISTICS)}")
+            raise DomainError("--K", f"must be at least 1, not {K}")
+        if not time_limit > 0:
+            raise DomainError("--time-limit", f"must be positive, not {time_limit}")
+        if heuristic not in WINDOW_SEARCH:
+            raise DomainError("--heuristic", f"'{heuristic}' is not one of {', '.join(WINDOW_SEARCH)}")
         self.K, self.time_limit, self.heuristic = K, time_limit, heuristic
         self.log = Path(log) if log else None
         self.name = f"clairvoyant-{K}"
+        self.run_name = self.name if heuristic == "pdb" else f"{self.name}-{heuristic}"
         self.config = {"K": K, "time_limit": time_limit,
-                       "search": f"astar({HEURISTICS[heuristic]}) by f-levels, pathmax, reopening",
+                       "search": f"astar({WINDOW_SEARCH[heuristic]}) by f-levels, pathmax, reopening",
                        "fallback": "the myopic chain (the current task's optimal plan executed)"}
         self._model = None
         self._sequence = None
+
+    def set_log(self, path) -> None:
+        """Append every planned window to this JSON-lines file."""
+        self.log = Path(path)
 
     def start(self, model, sequence) -> None:
         self._sequence = getattr(sequence, "id", None)
@@ -60,6 +83,8 @@ class ClairvoyantOracle(Planner):
             self._model = model
             self._bm = BatchedModel(model)
             self._joint = JointSearch(model, max_window=self.K)
+            self._myopic = MyopicOracle("internal", time_limit=float("inf"))    # the chain is not timed
+            self._myopic.start(model, None)
 
     def plan(self, state: int, task, upcoming: list) -> Reply:
         window = [task] + list(upcoming[: self.K - 1])
@@ -88,13 +113,11 @@ class ClairvoyantOracle(Planner):
         world.state = state
         first = None
         for task in window:
-            if world.begin(task):               # already holds: completes at once
-                continue
-            r = optimal_plan(self._bm, world.state, task)
-            if r.plan is None:
+            info = play_task(world, self._myopic, task)
+            if info and "executed" not in info:     # no plan: the chain has no cost
                 return first or [], None
-            first = r.plan if first is None else first
-            world.execute(r.plan)
+            if "executed" in info and first is None:
+                first = info["executed"]
         return first or [], sum(o.cost for o in world.outcomes)
 
     def summary(self, rows: list) -> dict:
@@ -119,18 +142,15 @@ def proven_optimal(window: dict) -> bool:
 
 
 def main() -> None:
-    from experiments.evaluate import evaluate
-
     p = cli.parser(__doc__.splitlines()[0], sequences=True)
-    p.add_argument("--K", type=int, default=3, help="tasks planned jointly (default: %(default)s)")
-    p.add_argument("--time-limit", type=float, default=600.0, help="seconds per window (default 600)")
-    p.add_argument("--heuristic", default="pdb", choices=list(HEURISTICS),
-                   help="joint search heuristic (default: %(default)s)")
+    ClairvoyantOracle.options(p)
+    p.add_argument("--force", action="store_true", help="replace a finished results file made otherwise")
     args = p.parse_args()
     model = compile_domain(args.domain, args.layout)
-    out = args.out or f"results/clairvoyant-{args.K}-{model.layout}.json"
-    agent = ClairvoyantOracle(args.K, args.time_limit, args.heuristic, log=f"{out}.windows.jsonl")
-    r = evaluate(model, agent, cli.parse_ids(args.sequences), out)
+    agent = ClairvoyantOracle.from_args(args, model)
+    out = args.out or default_out(agent, model)
+    agent.set_log(f"{out}.windows.jsonl")
+    r = evaluate(model, agent, cli.parse_ids(args.sequences), out, reference=reference_path(model), force=args.force)
     print(f"\nclairvoyant K={args.K}, {model.name} {model.layout}, sequences {args.sequences}")
     print(f"cost per task {r['cost_per_task']}, improvement vs myopic {r['improvement_vs_myopic']}, "
           f"share optimal {r['share_optimal']}, window seconds median {r['median_window_seconds']} "

@@ -34,11 +34,12 @@ import numpy as np
 
 from planning import cli
 from planning.atomic import write_json
-from planning.batched import BatchedModel
+from planning.domain.batched import BatchedModel
 from planning.errors import DomainError
-from planning.heuristics import INF_64 as INF
-from planning.heuristics import HMax, goal_literals
-from planning.levels import ClosedStates, cheapest_unique
+from planning.heuristics.hmax import INF_64 as INF
+from planning.heuristics import choose, names
+from planning.heuristics.hmax import HMax, goal_literals
+from planning.search.state_table import ClosedStates, cheapest_unique
 
 CHUNK = 1 << 16          # rows per goal test: keeps the (rows, conjunctions) arrays small
 
@@ -298,7 +299,6 @@ class MultiGoalSearch:
 
 
 # ---- the oracle --------------------------------------------------------------------------
-HEURISTICS = ("pdb", "lmcut", "lmcut-pc", "hmax", "blind")
 
 
 @dataclass
@@ -323,34 +323,31 @@ class Labeller:
     """C_AP(s) = sum_tau P(tau) C*_tau(s) over every task instantiation of a layout, by one multi-goal search.
 
     heuristic: "pdb" (min over the unsettled tasks of their pattern databases,
-    planning.pdb; the default, for a layout whose rooms name its locations, else
+    planning.heuristics.pdb; the default, for a layout whose rooms name its locations, else
     "lmcut"), "lmcut" (LM-cut of the unsettled tasks' goals joined by "or";
-    planning.lmcut), "lmcut-pc" (the same on the P^C compilation with the agent's
-    atom pairs, planning.conjunctions; states that break the mutexes it relies on
+    planning.heuristics.lmcut), "lmcut-pc" (the same on the P^C compilation with the agent's
+    atom pairs, planning.heuristics.lmcut_pc; states that break the mutexes it relies on
     are labelled with "lmcut"), "hmax" (min over the unsettled tasks of h_max) or
     "blind" (Dijkstra). All are admissible, so every label is the same exact one.
     """
 
     def __init__(self, model, heuristic: str = "pdb", time_limit: float | None = None, cache: bool = True,
                  deepest_first: bool = False):
-        if heuristic not in HEURISTICS:
-            raise DomainError("--heuristic", f"'{heuristic}' is not one of {', '.join(HEURISTICS)}")
-        from planning.lmcut import LMCut
-        from planning.pdb import pattern_databases
+        heuristic = choose(heuristic, model, "multi-goal")
+        from planning.heuristics.lmcut import LMCut
+        from planning.heuristics.pdb import pattern_databases
 
         self.model, self.time_limit = model, time_limit
         self.bm = BatchedModel(model)
         self.goals = TaskGoals(self.bm, model.tasks)
         self.fallback = None
-        if heuristic == "pdb" and not model.locations:
-            heuristic = "lmcut"                 # patterns need to know the locations
         if heuristic == "pdb":
             h = pattern_databases(model, self.bm.n_words)
             cache = False                       # a lookup: cheaper than the cache's own lookup
         elif heuristic == "lmcut":
             h = UnionGoal(self.goals, LMCut(model, self.bm), "lmcut")
         elif heuristic == "lmcut-pc":
-            from planning.conjunctions import ConjunctionLMCut, MutexPairs, agent_pairs
+            from planning.heuristics.lmcut_pc import ConjunctionLMCut, MutexPairs, agent_pairs
 
             self.mutex = MutexPairs(model, [model.init] + [model.reset_state(seed) for seed in range(32)])
             pc = ConjunctionLMCut(model, self.bm, self.mutex, self.goals.literals, keep=agent_pairs(model))
@@ -406,7 +403,7 @@ def read_state(model, path) -> int:
 
 def _fluent(model, text: str, path) -> bool:
     """True for a fluent atom; False for a static fact of the layout (kept out of states)."""
-    from planning.grounding import parse_atom_text
+    from planning.domain.grounding import parse_atom_text
     try:
         key = parse_atom_text(text)
     except ValueError as e:
@@ -461,12 +458,12 @@ def summary(model, label: Label) -> str:
 
 
 def main() -> None:
-    from planning.compiler import compile_domain
+    from planning.domain.compiler import compile_domain
 
     p = cli.parser(__doc__.splitlines()[0])
     p.add_argument("--state", default=None, help="a JSON list of true atoms or a PDDL problem file "
                                                  "(default: the layout's start state)")
-    p.add_argument("--heuristic", default="pdb", choices=HEURISTICS, help="(default: %(default)s)")
+    p.add_argument("--heuristic", default="pdb", choices=names("multi-goal"), help="(default: %(default)s)")
     p.add_argument("--time-limit", type=float, default=None, help="seconds for the search (default: none)")
     args = p.parse_args()
     model = compile_domain(args.domain, args.layout)

@@ -1,7 +1,7 @@
 """The myopic oracle (thesis §5.2.2 item 1): each task solved alone, cost-optimally, blind to the next.
 
 The thesis's oracle is Fast Downward's A* with the blind heuristic; `--planner
-internal` uses our exact in-process A* (LM-cut on the compiled model) instead.
+internal` uses our exact in-process A* (pattern databases on the compiled model) instead.
 Both return optimal plans, so a task's cost is the same from the same state;
 where several plans are optimal the two may leave different worlds behind, and
 the sequences then drift apart (the closing table reports both).
@@ -13,13 +13,26 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Iterator
 
-from experiments.agents import Planner, Reply
 from planning import cli
-from planning import fast_downward as fd
-from planning.batched import BatchedModel
-from planning.compiler import compile_domain
-from planning.search import optimal_plan
-from planning.task_stream import PersistentWorld, TaskStream
+from planning.external import fast_downward as fd
+from planning.domain.batched import BatchedModel
+from planning.domain.compiler import compile_domain
+from planning.search.optimal import optimal_plan
+from planning.errors import DomainError
+from planning.world.agents import PlanFunction, Planner, Reply
+from planning.world.runner import default_out, evaluate, play_task
+from planning.world.task_stream import PersistentWorld, TaskStream
+
+REFERENCE = "results/myopic-oracle-{layout}.json"
+"""The myopic oracle's results file (Fast Downward): every improvement figure is measured against it."""
+
+
+def reference_path(model) -> str:
+    """The myopic oracle's results file of a layout."""
+    return REFERENCE.format(layout=model.layout)
+
+
+PLANNERS = ("fast-downward", "internal")
 
 
 class MyopicOracle(Planner):
@@ -27,10 +40,23 @@ class MyopicOracle(Planner):
 
     name = "myopic-oracle"
 
+    @classmethod
+    def options(cls, p) -> None:
+        p.add_argument("--planner", default="fast-downward", choices=PLANNERS,
+                       help="Fast Downward's blind A* (the thesis's) or our exact A* (default: %(default)s)")
+        p.add_argument("--time-limit", type=float, default=600.0, help="planner seconds per task (default: %(default)s)")
+
+    @classmethod
+    def from_args(cls, args, model=None) -> "MyopicOracle":
+        return cls(args.planner, args.time_limit)
+
     def __init__(self, planner: str = "fast-downward", time_limit: float = 600.0):
-        if planner not in ("fast-downward", "internal"):
-            raise ValueError(f"unknown planner {planner}")
+        if planner not in PLANNERS:
+            raise DomainError("--planner", f"unknown planner '{planner}' (known: {', '.join(PLANNERS)})")
+        if not time_limit > 0:
+            raise DomainError("--time-limit", f"must be positive, not {time_limit}")
         self.planner, self.time_limit = planner, time_limit
+        self.run_name = "myopic-oracle" if planner == "fast-downward" else f"myopic-oracle-{planner}"
         self.config = {"planner": planner, "time_limit": time_limit,
                        "search": fd.OPTIMAL_CONFIG if planner == "fast-downward" else "astar(pdb) by f-levels"}
         self._model = None
@@ -78,19 +104,12 @@ def rollout(model, planner: Planner, seed: int, n_tasks: int, done: list | None 
         task, reset = stream.next()
         if reset is not None:
             world.reset(reset)
-        before, info, plan = world.state, {}, []
+        before = world.state
         if i < len(done) and done[i].task != task.name:
             raise ValueError(f"resumed record {i} is {done[i].task}, but seed {seed} draws {task.name}")
-        if not world.begin(task):
-            if i < len(done):
-                plan, info = done[i].plan, done[i].info
-            else:
-                reply = planner.plan(world.state, task, [])
-                plan, info = reply.plan, dict(reply.info)
-            if plan:
-                plan = world.execute(plan)
-            else:
-                world.abandon()
+        agent = planner if i >= len(done) else PlanFunction(lambda s, t, r=done[i]: Reply(r.plan or None, r.info))
+        info = play_task(world, agent, task)
+        plan = info.pop("executed", [])
         states = [before]
         for a in plan or []:
             states.append(model.apply(states[-1], a))
@@ -116,17 +135,14 @@ def type_table(result: dict) -> str:
 
 
 def main() -> None:
-    from experiments.evaluate import evaluate
-
     p = cli.parser(__doc__.splitlines()[0], sequences=True)
-    p.add_argument("--planner", default="fast-downward", choices=["fast-downward", "internal"])
-    p.add_argument("--time-limit", type=float, default=600.0, help="planner seconds per task (default 600)")
+    MyopicOracle.options(p)
+    p.add_argument("--force", action="store_true", help="replace a finished results file made otherwise")
     args = p.parse_args()
     model = compile_domain(args.domain, args.layout)
-    agent = MyopicOracle(args.planner, args.time_limit)
-    suffix = "" if args.planner == "fast-downward" else "-internal"
-    out = args.out or f"results/myopic-oracle{suffix}-{model.layout}.json"
-    r = evaluate(model, agent, cli.parse_ids(args.sequences), out)
+    agent = MyopicOracle.from_args(args, model)
+    out = args.out or default_out(agent, model)
+    r = evaluate(model, agent, cli.parse_ids(args.sequences), out, reference=reference_path(model), force=args.force)
     print(f"\nmyopic oracle ({args.planner}), {model.name} {model.layout}, sequences {args.sequences}: "
           f"{r['tasks']} tasks in {r['wall_seconds']}s")
     print(type_table(r))

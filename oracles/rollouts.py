@@ -24,10 +24,10 @@ from tqdm import tqdm
 
 from planning import cli
 from planning.atomic import write_json
-from planning.compiler import compile_domain
+from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 
-from experiments.agents import Planner, Reply
+from planning.world.agents import Planner, Reply
 
 from .myopic import MyopicOracle, TaskRecord, rollout, type_table
 
@@ -188,8 +188,30 @@ def rows(model, records: list[TaskRecord]) -> list[dict]:
              "auto": r.auto, "seconds": r.info.get("seconds", 0.0)} for r in records]
 
 
+def record_states(records) -> list[int]:
+    """The worlds a rollout passes through: fresh worlds, states along each plan, post-consumption worlds."""
+    out = []
+    for i, rec in enumerate(records):
+        if i == 0 or rec.reset_seed is not None:
+            out.append(rec.states[0])
+        out += rec.states[1:-1]
+        out.append(rec.after)
+    return out
+
+
+def faithful_states(model, n: int, seed: int = 0, progress: bool = True) -> list[int]:
+    """n distinct states visited by the myopic oracle (oracles.rollouts.cached_rollout, planner internal)."""
+    n_tasks = max(8, n // 4)
+    while True:
+        records = cached_rollout(model, seed, n_tasks, progress=progress)
+        states = list(dict.fromkeys(record_states(records)))
+        if len(states) >= n:
+            return states[:n]
+        n_tasks = int(n_tasks * 1.5) + 1
+
+
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0])
+    p = cli.parser(__doc__.splitlines()[0], seed=True)
     p.add_argument("--tasks", type=int, default=2000, help="tasks of the stream (default: %(default)s)")
     p.add_argument("--planner", default="internal", choices=["internal", "fast-downward"])
     p.add_argument("--time-limit", type=float, default=600.0, help="planner seconds per task (default 600)")

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from planning.compiler import compile_domain
+from planning.domain.compiler import compile_domain
 
 RESTAURANT = "domains/restaurant"
 MINIMAL = "domains/minimal"

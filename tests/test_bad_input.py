@@ -5,8 +5,8 @@ import sys
 
 import pytest
 
-from planning.compiler import compile_source
-from planning.domain_folder import read_domain
+from planning.domain.compiler import compile_source
+from planning.domain.folder import read_domain
 from planning.errors import DomainError
 
 
@@ -90,7 +90,7 @@ def test_unsatisfiable_task_is_refused(folder):
 
 
 def test_command_line_exits_with_one_line(folder):
-    r = subprocess.run([sys.executable, "-m", "planning.bench", "--domain", str(folder), "--layout", "attic"],
+    r = subprocess.run([sys.executable, "-m", "planning.domain.bench", "--domain", str(folder), "--layout", "attic"],
                        capture_output=True, text=True)
     assert r.returncode == 2
     assert r.stderr.strip().count("\n") == 0 and "unknown layout 'attic'" in r.stderr

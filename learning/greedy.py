@@ -1,0 +1,57 @@
+"""The greedy deployment of a learned Q (the thesis's Myopic / Anticipatory RL (greedy) rows): argmax_a Q(s, τ, a)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from planning.errors import DomainError
+from planning.world.agents import Policy
+
+
+def checkpoint_config(path) -> dict:
+    """What a results file records of a Q-network checkpoint: its path, step, evaluation and training settings."""
+    from learning.qnet import read_checkpoint
+
+    payload = read_checkpoint(path)
+    cfg = payload.get("config", {})
+    return {"checkpoint": str(path),
+            **{k: payload[k] for k in ("step", "eval") if k in payload},
+            **{k: cfg[k] for k in ("horizon", "seed", "gamma", "goal_reward") if k in cfg}}
+
+
+def checkpoint_run_name(agent: str, checkpoint) -> str:
+    """A default results name that names the checkpoint: rl-greedy + rl-anticipatory-two-room-seed0.pt ->
+    rl-greedy-anticipatory-two-room-seed0."""
+    return f"{agent}-{Path(checkpoint).stem.removeprefix('rl-')}"
+
+
+class GreedyValuePolicy(Policy):
+    """Acts greedily on a trained Q-network checkpoint."""
+
+    name = "rl-greedy"
+
+    @classmethod
+    def options(cls, p) -> None:
+        p.add_argument("--checkpoint", required=True, help="Q-network checkpoint (learning.dqn's best.pt)")
+
+    @classmethod
+    def from_args(cls, args, model=None) -> "GreedyValuePolicy":
+        return cls(args.checkpoint)
+
+    def __init__(self, checkpoint):
+        if not checkpoint:
+            raise DomainError("--checkpoint", "the rl-greedy agent needs --checkpoint PATH")
+        self.checkpoint = str(checkpoint)
+        # Read now: a bad checkpoint fails before any output, and the config is
+        # complete before the runner compares it with a partial run's to resume.
+        self.config = checkpoint_config(self.checkpoint)
+        self.run_name = checkpoint_run_name(self.name, self.checkpoint)
+        self._model = None
+
+    def start(self, model, sequence) -> None:
+        if model is not self._model:
+            from learning.qnet import load_value_function
+
+            self._model, self.value = model, load_value_function(self.checkpoint, model)
+
+    def act(self, state: int, task) -> int:
+        return int(self.value.greedy([state], task.index)[0])

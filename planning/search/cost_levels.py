@@ -1,0 +1,130 @@
+"""A* by cost levels on the batched model: every state of one f expanded in one numpy call.
+
+States are closed in order of increasing f = g + h, level by level; with no
+heuristic this is Dijkstra and a state is closed at its optimal cost, the first
+time it appears. Duplicate detection is exact (`planning.search.state_table`).
+This is what makes exact optimal planning cheap in Python: the per-state work
+happens inside numpy, at millions of transitions per second.
+"""
+from __future__ import annotations
+
+import heapq
+import time
+
+import numpy as np
+
+from planning.heuristics.hmax import INF_64 as INF
+from planning.search.state_table import ClosedStates, StateTable, cheapest_unique
+
+class CostLevels:
+    """Iterate over (f, states, ids, g): states closed at f = g + h, level by level.
+
+    With no heuristic this is Dijkstra (f = g) and each state is closed once, at
+    its optimal g. With an admissible heuristic `h(batch) -> (N,) costs` it is A*
+    with pathmax (a child's f is at least its parent's) and reopening: a closed
+    state reached again with a smaller g is closed again, so an inconsistent
+    heuristic such as LM-cut still gives optimal costs; with a consistent one
+    nothing is ever reopened. States whose h is infinite (dead ends) are never opened.
+    """
+
+    def __init__(self, bm, start: int, max_states: int | None = None, time_limit: float | None = None,
+                 heuristic=None, after_step=None):
+        """`after_step(batch) -> batch` rewrites generated states (the joint search completes stages)."""
+        self.bm = bm
+        self.h = heuristic
+        self.after_step = after_step
+        self.max_states = max_states
+        self.closed = 0
+        self.reopened = 0               # closings of a state already closed at a larger g
+        self.exhausted = False          # True when every reachable state was closed
+        self._closed = ClosedStates(bm.n_words)
+        # h of every state evaluated so far: an open state is generated again and
+        # again from different parents, and a strong heuristic is the dear part.
+        self._h_table = StateTable(bm.n_words)
+        self._parents: list[np.ndarray] = []
+        self._actions: list[np.ndarray] = []
+        start_row = bm.pack([start])
+        f0 = 0 if heuristic is None else int(heuristic(start_row)[0])
+        self.f = f0                     # the level being closed: a lower bound on any goal's cost
+        # The time limit bounds the search; what the heuristic builds on its first call (pattern
+        # databases, kept for later searches) is done before the clock starts.
+        self.deadline = None if time_limit is None else time.perf_counter() + time_limit
+        self._open: dict[int, list] = {f0: [(start_row, np.array([-1]), np.array([-1]), np.array([0]))]}
+        self._heap = [f0]
+
+    def __iter__(self):
+        while self._heap:
+            if self.max_states is not None and self.closed >= self.max_states:
+                return
+            if self.deadline is not None and time.perf_counter() > self.deadline:
+                return
+            f = heapq.heappop(self._heap)
+            if f >= INF:
+                break
+            self.f = f
+            rows, parents, actions, g = (np.concatenate(x) for x in zip(*self._open.pop(f)))
+            rows, parents, actions, g, keys = self._new_states(rows, parents, actions, g)
+            if not len(rows):
+                continue
+            ids = np.arange(self.closed, self.closed + len(rows))
+            self.closed += len(rows)
+            self._parents.append(parents)
+            self._actions.append(actions)
+            self.reopened += self._closed.close(keys, rows, g)
+            yield f, rows, ids, g
+            self._expand(f, rows, ids, g)
+        self.exhausted = True
+
+    def plan_to(self, state_id: int) -> list[int]:
+        """The actions from the start to a closed state."""
+        parents = np.concatenate(self._parents)
+        actions = np.concatenate(self._actions)
+        plan = []
+        while parents[state_id] >= 0:
+            plan.append(int(actions[state_id]))
+            state_id = int(parents[state_id])
+        return plan[::-1]
+
+    def _new_states(self, rows, parents, actions, g):
+        """The rows not yet closed at a g as small, one per distinct state (its smallest g), with keys."""
+        pick, keys = cheapest_unique(rows, g)
+        rows, parents, actions, g = rows[pick], parents[pick], actions[pick], g[pick]
+        fresh = ~self._closed.closed_mask(keys, rows, g)
+        return rows[fresh], parents[fresh], actions[fresh], g[fresh], keys[fresh]
+
+    def _cached_h(self, keys, rows) -> np.ndarray:
+        """h of distinct states, computed only for those never seen before."""
+        run, pos = self._h_table.find(keys, rows)
+        h = self._h_table.get(run, pos)
+        new = run < 0
+        if new.any():
+            h[new] = self.h(rows[new])
+            self._h_table.add(keys[new], rows[new], h[new])
+        return h
+
+    def _expand(self, f_parent, rows, ids, g) -> None:
+        parent, action, child, cost = self.bm.successors(rows)
+        if not len(child):
+            return
+        if self.after_step is not None:
+            child = self.after_step(child)
+        # One copy of each child, the one of smallest g; sorted keys make the closed lookup sequential.
+        g_child = g[parent] + cost
+        order, keys = cheapest_unique(child, g_child)
+        parent, action, child, g_child = parent[order], action[order], child[order], g_child[order]
+        keep = ~self._closed.closed_mask(keys, child, g_child)
+        parent, action, child, g_child = parent[keep], action[keep], child[keep], g_child[keep]
+        if self.h is None:
+            f_child = g_child
+        else:                                      # pathmax: h may be inconsistent (LM-cut)
+            h = self._cached_h(keys[keep], child)
+            f_child = np.where(h >= INF, INF, np.maximum(g_child + h, f_parent))
+        for f in np.unique(f_child):
+            if f >= INF:
+                continue
+            sel = f_child == f
+            level = int(f)
+            if level not in self._open:
+                self._open[level] = []
+                heapq.heappush(self._heap, level)
+            self._open[level].append((child[sel], ids[parent[sel]], action[sel], g_child[sel]))

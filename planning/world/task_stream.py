@@ -1,0 +1,134 @@
+"""The persistent world: tasks one after another, never reset between them.
+
+Rules (thesis Chapter 3, §5.2.3): a task already satisfied when drawn completes
+at once with zero cost and zero actions; on success its consumption is applied;
+a task not completed within `max_actions` primitive actions is abandoned (its
+actions' cost is still charged) and the next starts wherever the world is. The
+world is re-sampled from a reset seed every `tasks_per_reset` tasks.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from planning.errors import DomainError
+
+
+@dataclass
+class Outcome:
+    """How one task ended."""
+
+    task: str
+    cost: int
+    actions: int
+    success: bool
+    auto: bool = False          # already satisfied when drawn
+
+
+@dataclass
+class Step:
+    """The result of one primitive action."""
+
+    cost: int
+    completed: bool             # the action reached the goal (consumption applied)
+    abandoned: bool             # the action used up the budget without reaching it
+
+
+class PersistentWorld:
+    """One world state that persists across tasks, with the current task and its budget."""
+
+    def __init__(self, model, reset_seed: int = 0, max_actions: int | None = None):
+        self.model = model
+        self.max_actions = max_actions or model.config.get("stream", {}).get("max_actions", 64)
+        self.state = model.reset_state(reset_seed)
+        self.task = None
+        self.outcomes: list[Outcome] = []
+        self._cost = self._actions = 0
+
+    def reset(self, seed: int) -> int:
+        """Re-sample the world (between sequences), dropping any unfinished task."""
+        self.state = self.model.reset_state(seed)
+        self.task = None
+        return self.state
+
+    def begin(self, task) -> bool:
+        """Make `task` current; if it already holds, complete it at zero cost and return True."""
+        if self.task is not None:
+            raise DomainError(task.name, f"task {self.task.name} is still open")
+        self.task, self._cost, self._actions = task, 0, 0
+        if task.satisfied(self.state):
+            self._finish(success=True, auto=True)
+            return True
+        return False
+
+    def act(self, action: int) -> Step:
+        """Apply one primitive action of the current task (an error, world unchanged, if inapplicable)."""
+        if self.task is None:
+            raise DomainError(self.model.actions[action], "no open task")
+        self.state = self.model.apply(self.state, action)
+        cost = self.model.action_cost[action]
+        self._cost += cost
+        self._actions += 1
+        if self.task.satisfied(self.state):
+            self._finish(success=True)
+            return Step(cost, True, False)
+        if self._actions >= self.max_actions:
+            self._finish(success=False)
+            return Step(cost, False, True)
+        return Step(cost, False, False)
+
+    def execute(self, plan: list) -> list:
+        """Run a plan for the current task within its budget; the actions executed.
+
+        The plan stops where the task completes or is abandoned; a plan that ends
+        short of the goal fails the task.
+        """
+        for k, a in enumerate(plan):
+            step = self.act(a)
+            if step.completed or step.abandoned:
+                return list(plan[: k + 1])
+        self.abandon()
+        return list(plan)
+
+    def abandon(self) -> None:
+        """Give up the current task (e.g. the planner failed): a failure, its cost so far charged."""
+        self._finish(success=False)
+
+    def _finish(self, success: bool, auto: bool = False) -> None:
+        if success:
+            self.state = self.task.consume(self.state)
+        self.outcomes.append(Outcome(self.task.name, self._cost, self._actions, success, auto))
+        self.task = None
+
+
+def draw_tasks(model, seed: int, n: int) -> list:
+    """n tasks drawn i.i.d. from the layout's task distribution with a seeded generator."""
+    rng = np.random.default_rng(seed)
+    return [model.tasks.sample(rng) for _ in range(n)]
+
+
+class TaskStream:
+    """An endless seeded stream of (task, world-reset flag) for learning and demonstrations.
+
+    After every `tasks_per_reset` tasks the world is re-sampled; the domain may
+    name a fixed first task after each reset ([stream] first_task), as the
+    minimal example does (clear C, then a delivery drawn from P).
+    """
+
+    def __init__(self, model, seed: int):
+        stream = model.config.get("stream", {})
+        self.model = model
+        self.rng = np.random.default_rng(seed)
+        self.tasks_per_reset = stream.get("tasks_per_reset", 50)
+        first = stream.get("first_task")
+        self.first_task = model.tasks.get(first) if first else None
+        self.count = 0
+
+    def next(self) -> tuple:
+        """(task, reset_seed or None): a reset seed when the world must be re-sampled first."""
+        k = self.count % self.tasks_per_reset
+        reset = int(self.rng.integers(2**31)) if k == 0 else None
+        task = self.first_task if (k == 0 and self.first_task) else self.model.tasks.sample(self.rng)
+        self.count += 1
+        return task, reset

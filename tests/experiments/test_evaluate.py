@@ -1,0 +1,129 @@
+"""The evaluation runner's accounting under the persistent-world rules, and the results JSON."""
+import json
+
+import pytest
+
+from experiments.random_policy import RandomPolicy
+from planning.world.agents import Planner, Policy, Reply
+from planning.world.runner import evaluate, play_sequence
+from planning.errors import DomainError
+from planning.world.sequences import Sequence, generate, load
+
+
+class Oscillate(Policy):
+    """Walks between countertop and shelf forever: every non-trivial task is abandoned."""
+
+    name = "oscillate"
+
+    def start(self, model, sequence):
+        self.model = model
+
+    def act(self, state, task):
+        names = [self.model.actions[a] for a in self.model.applicable(state)]
+        for n in ("move(countertop, shelf)", "move(shelf, countertop)"):
+            if n in names:
+                return self.model.action(n)
+        return self.model.action_index[names[0]]
+
+
+class Scripted(Planner):
+    """Returns a fixed reply per task name."""
+
+    name = "scripted"
+
+    def __init__(self, replies):
+        self.replies = replies
+
+    def plan(self, state, task, upcoming):
+        return self.replies[task.name]
+
+
+def seq(model, names, reset_seed=5):
+    return Sequence(0, reset_seed, [model.tasks.get(n) for n in names])
+
+
+def test_abandonment_and_auto_completion(two_room):
+    s = seq(two_room, ["serve-water(servingtable)", "pick-place(plate_0, servingtable)"])
+    rows = play_sequence(two_room, Oscillate(), s)
+    assert [(r["success"], r["actions"], r["cost"], r["auto"]) for r in rows] == \
+        [(False, 64, 64 * 25, False), (True, 0, 0, True)]
+
+
+def test_planner_failure_and_short_plan_fail_the_task(two_room):
+    m = two_room
+    s = seq(m, ["serve-water(servingtable)", "make-coffee(servingtable)"])
+    agent = Scripted({"serve-water(servingtable)": Reply(None, {"status": "out-of-time"}),
+                      "make-coffee(servingtable)": Reply([m.action("pick(cup_0, countertop)")])})
+    rows = play_sequence(m, agent, s, bar=None)
+    assert [(r["success"], r["cost"], r["actions"]) for r in rows] == [(False, 0, 0), (False, 100, 1)]
+    assert rows[0]["status"] == "out-of-time"
+
+
+def test_results_json_and_resume(two_room, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)   # no results/ here: improvement_vs_myopic is None
+    out = tmp_path / "r.json"
+    import planning.world.runner as ev
+
+    real_load = ev.load
+    monkeypatch.setattr(ev, "load", lambda model, ids: [Sequence(i, 100 + i, s.tasks[:6])
+                                                        for i, s in zip(ids, real_load(model, ids))])
+    agent = RandomPolicy(seed=1)
+    first = evaluate(two_room, agent, [0, 1], out, progress=False)
+    data = json.loads(out.read_text())
+    assert data == first
+    assert set(data) >= {"agent", "domain", "layout", "sequences", "tasks", "cost_per_task",
+                         "actions_per_task", "success_rate", "improvement_vs_myopic", "per_sequence",
+                         "per_task", "wall_seconds", "config"}
+    assert data["tasks"] == 12 and data["improvement_vs_myopic"] is None
+    assert data["cost_per_task"] == pytest.approx(sum(r["cost"] for r in data["per_task"]) / 12, abs=0.01)
+    assert [s["tasks"] for s in data["per_sequence"]] == [6, 6]
+    # A partial file from an interrupted run: sequence 0 is kept, only 1 is played again.
+    partial = tmp_path / "r.json.partial.json"
+    kept = [dict(r, cost=7) for r in data["per_task"] if r["sequence"] == 0]
+    partial.write_text(json.dumps({"agent": agent.name, "layout": "two-room", "config": agent.config,
+                                   "wall_seconds": 1.0, "done": {"0": kept}}))
+    resumed = evaluate(two_room, RandomPolicy(seed=1), [0, 1], out, progress=False)
+    assert [r["cost"] for r in resumed["per_task"][:6]] == [7] * 6 and not partial.exists()
+
+
+def test_a_finished_run_is_extended_not_replayed(two_room, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "r.json"
+    import planning.world.runner as ev
+
+    real_load = ev.load
+    monkeypatch.setattr(ev, "load", lambda model, ids: [Sequence(i, 100 + i, s.tasks[:4])
+                                                        for i, s in zip(ids, real_load(model, ids))])
+    evaluate(two_room, RandomPolicy(seed=1), [0], out, progress=False)
+    data = json.loads(out.read_text())
+    for r in data["per_task"]:
+        r["cost"] = 7                           # marks the rows of the finished run
+    out.write_text(json.dumps(data))
+    both = evaluate(two_room, RandomPolicy(seed=1), [0, 1], out, progress=False)
+    assert both["sequences"] == [0, 1] and both["tasks"] == 8
+    assert [r["cost"] for r in both["per_task"] if r["sequence"] == 0] == [7] * 4
+    # Another configuration's finished results are never replaced silently ...
+    before = out.read_text()
+    with pytest.raises(DomainError, match=r"r\.json: a finished run with seed 1, not 2; pass --force"):
+        evaluate(two_room, RandomPolicy(seed=2), [0], out, progress=False)
+    assert out.read_text() == before
+    # ... nor reused: with force it is played anew and replaced.
+    other = evaluate(two_room, RandomPolicy(seed=2), [0], out, progress=False, force=True)
+    assert [r["cost"] for r in other["per_task"]] != [7] * 4
+
+
+def test_corrupt_partial_file_is_a_one_line_error(two_room, tmp_path):
+    out = tmp_path / "r.json"
+    (tmp_path / "r.json.partial.json").write_text("{not json")
+    with pytest.raises(DomainError, match="corrupt partial results"):
+        evaluate(two_room, RandomPolicy(), [0], out, progress=False)
+
+
+def test_canonical_sequences_regenerate(restaurant):
+    stored = load(restaurant)
+    assert [s.id for s in stored] == list(range(10))
+    for rec, s in zip(generate(restaurant), stored):
+        assert rec["tasks"] == [t.name for t in s.tasks] and rec["reset_seed"] == s.reset_seed
+        assert len(s.tasks) == 50
+    on_disk = json.loads((restaurant.folder / "sequences" / restaurant.layout / "seq-03.json").read_text())
+    assert on_disk == generate(restaurant)[3] and on_disk["split"] == "development"

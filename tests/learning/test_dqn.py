@@ -1,0 +1,126 @@
+"""The trainer: a short run learns the grid example's first task; checkpoints resume; the demo memory."""
+import json
+
+import numpy as np
+import pytest
+
+from learning.dqn import Config, Trainer, domain_defaults, epsilon
+from learning.qnet import COMPLETE, CONTINUE, TERMINAL, ValueFunction
+from learning.replay import Replay, mixed_batch
+from planning.domain.compiler import compile_domain
+from planning.errors import DomainError
+from tests.conftest import MINIMAL
+
+
+def small_config(model, out, horizon="myopic", **over) -> Config:
+    values = {**domain_defaults(model, horizon), "steps": 1200, "eps_decay_steps": 800, "learning_starts": 100, "lr": 1e-3,
+              "hidden": 64, "target_every": 100, "demo_fraction": 0.5, "eval_every": 10**9,
+              "checkpoint_every": 1000, "log_every": 500, **over}
+    return Config(domain=MINIMAL, horizon=horizon, out=str(out), **values)
+
+
+def greedy_clears(model, vf, seeds) -> int:
+    """How many start worlds the greedy policy clears C from within the 64-action budget."""
+    clear = model.tasks.get("clear(c)")
+    done = 0
+    for seed in seeds:
+        s = model.reset_state(seed)
+        for _ in range(64):
+            s = model.apply(s, int(vf.greedy([s], clear.index)[0]))
+            if clear.satisfied(s):
+                done += 1
+                break
+    return done
+
+
+def test_short_training_learns_the_first_task_and_resumes(minimal, tmp_path):
+    trainer = Trainer(small_config(minimal, tmp_path), progress=False)
+    assert len(trainer.demos) > 0
+    kinds = trainer.demos.kinds[: len(trainer.demos)]
+    assert (kinds == COMPLETE).sum() > 0 and (kinds == TERMINAL).sum() > 0   # clear completes, deliver ends
+    # the oracle's return from each demonstrated step: the reward at completion, discounted before it
+    g, r = trainer.demo_returns, trainer.demos.rewards[: len(trainer.demos)]
+    done = kinds != CONTINUE
+    assert np.isfinite(g).all() and np.allclose(g[done], r[done])
+    assert np.allclose(g[:-1][~done[:-1]], r[:-1][~done[:-1]] + trainer.cfg.gamma * g[1:][~done[:-1]], atol=1e-4)
+    trainer.train()
+    vf = ValueFunction(trainer.net, trainer.enc)
+    assert greedy_clears(minimal, vf, range(20)) >= 18
+    rows = [json.loads(line) for line in (tmp_path / "metrics.jsonl").read_text().splitlines()]
+    logged = [r for r in rows if "step" in r and "eval" not in r]
+    assert {"success_rate", "task_return", "selected_q", "td_target", "action_share"} <= set(logged[-1])
+    assert (tmp_path / "best.pt").is_file() and (tmp_path / "last.pt").is_file()
+    final = [r["eval"] for r in rows if "eval" in r][-1]      # myopic: Q against the oracle's returns
+    assert abs(final["demo_q_bias"]) < 1.0, final
+    # resume: a new trainer picks up the step, memory and world where the last one stopped
+    again = Trainer(small_config(minimal, tmp_path, steps=1250), progress=False)
+    with open(tmp_path / "metrics.jsonl", "a") as f:      # a row logged after the checkpoint, then interrupted
+        f.write(json.dumps({"step": 1300, "tasks": 0}) + "\n")
+    again.resume(tmp_path / "last.pt")
+    steps = [json.loads(line).get("step") for line in (tmp_path / "metrics.jsonl").read_text().splitlines()]
+    assert 1300 not in steps and 1000 in steps                # rows past the checkpoint are dropped on resume
+    assert again.step == 1200 and len(again.memory) == len(trainer.memory)
+    assert again.world.state == trainer.world.state
+    again.train()
+    assert again.step == 1250
+    with pytest.raises(DomainError, match="goal_reward=10.0, not 12.0"):
+        Trainer(small_config(minimal, tmp_path, goal_reward=12.0), progress=False).resume(tmp_path / "last.pt")
+    with pytest.raises(DomainError, match="horizon"):
+        Trainer(small_config(minimal, tmp_path, horizon="anticipatory"), progress=False).resume(tmp_path / "last.pt")
+
+
+def test_epsilon_schedule_is_exponential():
+    cfg = Config()
+    assert epsilon(cfg, 0) == pytest.approx(1.0)
+    assert epsilon(cfg, 50_000) == pytest.approx(0.05 ** 0.5)
+    assert epsilon(cfg, 100_000) == pytest.approx(0.05) and epsilon(cfg, 400_000) == pytest.approx(0.05)
+
+
+def test_protected_demo_fraction():
+    agent, demos = Replay(1000, 1), Replay(100, 1)
+    for i in range(1000):
+        agent.add(np.zeros(1, np.uint64), 0, 1, 0.0, np.zeros(1, np.uint64), CONTINUE)
+    for i in range(100):
+        demos.add(np.zeros(1, np.uint64), 0, 2, 0.0, np.zeros(1, np.uint64), CONTINUE)
+    b = mixed_batch(agent, demos, 128, 0.25, np.random.default_rng(0))
+    assert (b["actions"] == 2).sum() == 32 and len(b["actions"]) == 128
+
+
+def test_layout_and_horizon_keyed_training_settings(three_room, two_room):
+    assert domain_defaults(three_room, "anticipatory")["demo_tasks"] == 48
+    assert domain_defaults(three_room, "myopic")["demo_tasks"] == 480
+    assert domain_defaults(two_room, "myopic")["demo_fraction"] == 0.2
+    assert domain_defaults(compile_domain(MINIMAL, None), "myopic")["gamma"] == 0.99
+
+
+def test_rl_greedy_agent_loads_a_checkpoint_and_acts(two_room, tmp_path):
+    from argparse import Namespace
+
+    from experiments.registry import agent_class
+    from learning.encoding import Encoding
+    from learning.qnet import build_network, network_payload, save_checkpoint
+
+    with pytest.raises(DomainError, match="--checkpoint"):
+        agent_class("rl-greedy").from_args(Namespace(checkpoint=None))
+    enc = Encoding(two_room)
+    path = save_checkpoint(tmp_path / "q.pt", network_payload(build_network(enc, 32), enc, {"step": 7}))
+    agent = agent_class("rl-greedy").from_args(Namespace(checkpoint=str(path)))
+    before = dict(agent.config)       # what the runner compares with a partial run's to resume
+    agent.start(two_room, None)
+    assert agent.config == before
+    s = two_room.reset_state(0)
+    task = next(t for t in two_room.tasks if not t.satisfied(s))
+    assert agent.act(s, task) in two_room.applicable(s)
+    assert agent.config["step"] == 7
+
+
+def test_throughput_benchmark_reports_rates_and_the_boundary_share():
+    from learning.bench import bench_horizon
+    r = bench_horizon(MINIMAL, "grid", "anticipatory", steps=60, updates=6, seed=0)
+    assert r["env_steps_per_s"] > 0 and r["demo_transitions"] > 0
+    for regime in ("early", "competent"):
+        e = r[regime]
+        assert e["updates_per_s"] > 0 and 0 <= e["boundary_share"] < 1
+        assert e["boundary_share_uncached"] < 1 and e["completions_per_minibatch"] >= 0
+    myopic = bench_horizon(MINIMAL, "grid", "myopic", steps=60, updates=6, seed=0)
+    assert "boundary_share" not in myopic["competent"]        # no boundary target without anticipation

@@ -1,0 +1,87 @@
+"""Pattern databases (planning.heuristics.pdb): admissible everywhere, exact where delete relaxations are blind."""
+import numpy as np
+
+from tests.conftest import random_walk_states
+from oracles.labelling import Labeller
+from planning.heuristics.hmax import goal_literals
+from planning.heuristics.lmcut import LMCut
+from planning.heuristics.pdb import pattern_databases
+
+
+def _estimates(model, state):
+    pdb = pattern_databases(model, Labeller(model, "blind").bm.n_words)
+    return pdb, pdb.per_task(Labeller(model, "blind").bm.pack([state]))[0]
+
+
+def test_exact_for_every_task_at_the_start(restaurant):
+    """From each layout's start, every one of the 48 tasks' estimates is its optimal cost."""
+    _, h = _estimates(restaurant, restaurant.init)
+    exact = Labeller(restaurant, "lmcut").label(restaurant.init).costs
+    assert (h == exact).all(), [(t.name, a, b) for t, a, b in zip(restaurant.tasks, h, exact) if a != b]
+
+
+def test_sees_the_round_trip_to_the_pantry(three_room):
+    """Fetching the jar from the pantry: 875 there, pick 100, 875 back, place 100 = 1,950.
+    The projection onto the robot and the jar knows the robot must walk back; LM-cut does not."""
+    task = three_room.tasks.get("pick-place(jar_0, servingtable)")
+    _, h = _estimates(three_room, three_room.init)
+    bm = Labeller(three_room, "blind").bm
+    lmcut = LMCut(three_room, bm)(bm.pack([three_room.init]), goal_literals(three_room, task))[0]
+    assert h[task.index] == 875 + 100 + 875 + 100
+    assert lmcut < 1950
+
+
+def test_pouring_needs_a_filled_vessel(three_room):
+    """With the machine's water used up, coffee needs water fetched and poured first: pick cup_0 100,
+    to the fountain 225, fill 1,000, to the machine 200, pour 200, place 100, brew 50, pick 100, to the
+    table 175, place 100 = 2,250. The pattern keeps what decides whether a pour refills the machine
+    (a vessel held with water in it), so its estimate is exact; LM-cut's is 1,800."""
+    state = three_room.init & ~three_room.state_from_atoms(["(at water_machine coffeemachine)"])
+    task = three_room.tasks.get("make-coffee(servingtable)")
+    _, h = _estimates(three_room, state)
+    exact = Labeller(three_room, "lmcut").label(state).costs[task.index]
+    assert h[task.index] == exact == 100 + 225 + 1000 + 200 + 200 + 100 + 50 + 100 + 175 + 100
+
+
+def test_admissible_and_labels_unchanged_on_reachable_states(two_room):
+    """On random-walk states every estimate is at most the optimal cost, and the labels are LM-cut's."""
+    pdb_lab, lmcut_lab = Labeller(two_room, "pdb"), Labeller(two_room, "lmcut")
+    assert pdb_lab.heuristic == "pdb"
+    for s in random_walk_states(two_room, 6, seed=3, walk=25):
+        exact = lmcut_lab.label(s).costs
+        assert (pdb_lab.label(s).costs == exact).all()
+        assert (pdb_lab.search.h.per_task(pdb_lab.bm.pack([s]))[0] <= exact).all()
+
+
+def test_a_state_outside_the_explored_space_gets_zero(two_room):
+    """A hand-written state no run reaches (the robot in two places) is outside every projection that
+    keeps the robot's position: those answer 0 (index `size` reads a 0), never a guess."""
+    pdb, _ = _estimates(two_room, two_room.init)
+    bm = Labeller(two_room, "blind").bm
+    robot = bm.pack([two_room.state_from_atoms(["(robot-at fountain)"])])[0]
+    batch = bm.pack([two_room.init]) | robot
+    keeping = [p for p, _ in pdb.projections.values() if p is not None and (p.mask & robot).any()]
+    assert len(keeping) > 5
+    assert all(p.index(batch)[0] == p.size for p in keeping)
+
+
+PICK_PLACES = ["pick-place(plate_0, shelf)", "pick-place(cup_0, servingtable)", "pick-place(cup_1, shelf)"]
+
+
+def test_saturated_costs_keep_the_distances_and_free_the_rest(two_room):
+    """A pattern's saturated costs (per action, the largest drop in its window distances over the
+    transitions the action induces) give it the very same distances, and leave cost for others:
+    the cup's pattern never needs the plate picked (placing it is what frees the hand). Every move
+    lies on some shortest path of the cup's, so the moves stay with the first pattern."""
+    pdb, _ = _estimates(two_room, two_room.init)
+    window = [two_room.tasks.get(n) for n in PICK_PLACES]
+    cup = pdb.projection(frozenset(["cup_0"]))
+    togo = cup.window_distances(window)
+    need = cup.saturated(togo, cup.costs)
+    assert (need >= 0).all() and (need <= cup.costs).all()
+    for full, saturated in zip(togo, cup.window_distances(window, need)):
+        assert (full == saturated).all()
+    picks = [a for a, name in enumerate(two_room.actions) if name.startswith("pick(plate_0,")]
+    moves = [a for a, name in enumerate(two_room.actions) if name.startswith("move(")]
+    assert len(picks) == 6 and (need[picks] == 0).all() and (cup.costs[picks] > 0).all()
+    assert (need[moves] == cup.costs[moves]).all()

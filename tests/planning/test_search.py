@@ -1,0 +1,43 @@
+"""The exact searches agree with each other and with hand-checked optimal costs."""
+import numpy as np
+import pytest
+
+from planning.domain.batched import BatchedModel
+from planning.external.fast_downward import replay_cost
+from planning.heuristics.hmax import HMax, goal_literals
+from planning.search.optimal import optimal_plan, uniform_cost_search
+from tests.conftest import random_walk_states
+from tests.examples import START_COSTS
+
+
+@pytest.mark.parametrize("name,cost", START_COSTS.items())
+def test_hand_checked_costs_from_the_start_state(restaurant, name, cost):
+    r = optimal_plan(BatchedModel(restaurant), restaurant.init, restaurant.tasks.get(name))
+    assert r.cost == cost
+    assert replay_cost(restaurant, restaurant.init, r.plan, restaurant.tasks.get(name)) == r.cost
+
+
+def test_astar_equals_uniform_cost_search(two_room):
+    bm = BatchedModel(two_room)
+    rng = np.random.default_rng(3)
+    states = random_walk_states(two_room, 400, seed=3)
+    cheap = [t for t in two_room.tasks if t.type in ("make-coffee", "clear", "wash", "pick-place")]
+    for i in rng.choice(len(states), 12, replace=False):
+        task = cheap[rng.integers(len(cheap))]
+        exact = uniform_cost_search(two_room, states[i], task, max_expansions=200_000)
+        if exact.plan is None:
+            continue
+        assert optimal_plan(bm, states[i], task).cost == exact.cost
+
+
+def test_hmax_is_admissible_on_the_start_state(three_room):
+    bm = BatchedModel(three_room)
+    h = HMax(three_room, bm)
+    task = three_room.tasks.get("serve-water(servingtable)")
+    assert h(bm.pack([three_room.init]), goal_literals(three_room, task))[0] == 1225   # pick 100 | move 225, fill 1000
+
+
+def test_unreachable_goal_has_no_plan(minimal):
+    stuck = minimal.state_from_atoms(["(robot-at x1y1)"])
+    r = optimal_plan(BatchedModel(minimal), stuck, minimal.tasks.get("deliver(a)"))
+    assert r.plan is None and r.complete

@@ -1,0 +1,29 @@
+"""Every `python -m` entry point answers an unknown --layout with a one-line error and exit status 2."""
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+# Entry points that need more than --layout to get as far as reading the domain.
+EXTRA = {"experiments.evaluate": ["--agent", "random"], "learning.dqn": ["--horizon", "myopic"],
+         "learning.gnn_dataset": ["--out", "unused"]}
+
+
+def entry_points() -> list[str]:
+    mods = []
+    for layer in ("planning", "oracles", "learning", "experiments"):
+        for p in sorted((ROOT / layer).rglob("*.py")):
+            if 'if __name__ == "__main__"' in p.read_text():
+                mods.append(".".join(p.relative_to(ROOT).with_suffix("").parts))
+    return mods
+
+
+@pytest.mark.parametrize("module", entry_points())
+def test_unknown_layout_is_a_one_line_error(module, tmp_path):
+    r = subprocess.run([sys.executable, "-m", module, "--layout", "attic", *EXTRA.get(module, [])],
+                       capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert r.returncode == 2, (r.returncode, r.stderr[-500:])
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "attic" in lines[0], r.stderr[-500:]
