@@ -13,7 +13,7 @@ $(VENV)/.installed: pyproject.toml
 
 .PHONY: run test test-slow bench
 run: $(VENV)/.installed
-	$(PY) -m experiments.demo --layout two-room
+	$(PY) -m experiments.demo --layout three-room --sequence 0
 
 test: $(VENV)/.installed
 	$(PY) -m pytest
