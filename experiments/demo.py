@@ -1,66 +1,68 @@
-"""Demonstration: a seeded task stream in the persistent restaurant, each task solved optimally alone.
+"""The main job: one canonical sequence played by the myopic oracle and by the value-guided agent, side by side.
 
-This is the myopic agent of the thesis with our exact in-process planner (A*
-with the layout's pattern databases on the compiled model): every plan is
-optimal for its own task and blind to the next, and the world it leaves behind
-is where the next task starts.
+The myopic oracle solves each task optimally alone (our exact A* with pattern
+databases); the anticipatory guided agent (thesis §4.2) completes each task in
+the way its learned preparedness value V_AP ranks best among those costing at
+most β times the myopic cost. Both start from the same world and see the same
+tasks; each task row shows both costs, and where the guided agent chose a
+terminal of its own search instead of the myopic plan, the plan it executed,
+so the investments it makes (a jar filled and parked, a cup left ready) can be
+read off directly.
 
-    python -m experiments.demo --layout two-room --tasks 50
+    python -m experiments.demo --layout three-room --sequence 0 --checkpoint checkpoints/rl-anticipatory-three-room-seed0.pt [--tasks 50]
 """
 from __future__ import annotations
 
 import time
 
+from learning.guided import ValueGuidedPlanner
+from oracles.myopic import MyopicOracle
 from planning import cli
 from planning.atomic import write_json
-from oracles.myopic import MyopicOracle
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
-from planning.world.runner import play_task
-from planning.world.task_stream import PersistentWorld, draw_tasks
+from planning.world.runner import play_sequence
+from planning.world.sequences import Sequence, load
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0], seed=True)
-    p.add_argument("--tasks", type=int, default=50, help="tasks in the stream (default: %(default)s)")
+    p = cli.parser(__doc__.splitlines()[0])
+    p.add_argument("--sequence", type=int, default=0, help="canonical sequence (default: %(default)s)")
+    p.add_argument("--tasks", type=int, default=50, help="its first N tasks (default: all 50)")
+    p.add_argument("--checkpoint", default=None,
+                   help="value checkpoint (default: checkpoints/rl-anticipatory-<layout>-seed0.pt)")
+    p.add_argument("--budget", type=int, default=None, help="search expansions per task (default: domain.toml [search])")
     args = p.parse_args()
     if args.tasks < 1:
         raise DomainError("--tasks", f"must be at least 1, not {args.tasks}")
     model = compile_domain(args.domain, args.layout)
-    planner = MyopicOracle("internal")
-    planner.start(model, None)
-    world = PersistentWorld(model, reset_seed=args.seed)
-    print(f"{model.name} {model.layout}: {model.n_atoms} atoms, {model.n_actions} ground actions, "
-          f"{len(model.tasks)} task instances; seed {args.seed}\n")
-    print(model.describe(world.state), "\n")
-    start = time.perf_counter()
-    for i, task in enumerate(draw_tasks(model, args.seed, args.tasks)):
-        t0 = time.perf_counter()
-        info = play_task(world, planner, task)
-        if not info:
-            plan_text = "(already satisfied)"
-        elif "executed" not in info:
-            plan_text = f"(no plan: {info.get('status')})"
-        else:
-            plan_text = ", ".join(model.actions[a] for a in info["executed"])
-        o = world.outcomes[-1]
-        print(f"{i:3d} {o.task:34s} cost {o.cost:5d}  actions {o.actions:2d}  "
-              f"{time.perf_counter() - t0:5.2f}s  {plan_text}")
-    outcomes = world.outcomes
-    total = sum(o.cost for o in outcomes)
-    print(f"\n{len(outcomes)} tasks: cost per task {total / len(outcomes):.1f}, actions per task "
-          f"{sum(o.actions for o in outcomes) / len(outcomes):.2f}, success rate "
-          f"{sum(o.success for o in outcomes) / len(outcomes):.2f}, {time.perf_counter() - start:.1f}s")
-    by_type: dict[str, list] = {}
-    for o in outcomes:
-        by_type.setdefault(o.task.split("(")[0], []).append(o.cost)
-    for ttype, costs in sorted(by_type.items()):
-        print(f"  {ttype:12s} {len(costs):3d} tasks  cost per task {sum(costs) / len(costs):8.1f}")
+    checkpoint = args.checkpoint or f"checkpoints/rl-anticipatory-{model.layout}-seed0.pt"
+    seq = load(model, [args.sequence])[0]
+    seq = Sequence(seq.id, seq.reset_seed, seq.tasks[: args.tasks])
+    guided = ValueGuidedPlanner(model, checkpoint, budget=args.budget)
+    print(f"{model.name} {model.layout}, sequence {seq.id} ({len(seq.tasks)} tasks); value {checkpoint}, "
+          f"β = {guided.beta:g}, budget {guided.budget} expansions\n")
+    t0 = time.perf_counter()
+    myopic = play_sequence(model, MyopicOracle("internal"), seq)
+    t_myopic = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    ours = play_sequence(model, guided, seq)
+    t_guided = time.perf_counter() - t0
+    print(f"{'':3s} {'task':30s} {'myopic':>7s} {'guided':>7s}")
+    for m, g in zip(myopic, ours):
+        note = ""
+        if g.get("source") == "search":
+            note = "  chose: " + ", ".join(g.get("plan", []))
+        print(f"{g['index']:3d} {g['task']:30s} {m['cost']:7d} {g['cost']:7d}{note}")
+    n = len(seq.tasks)
+    c_m, c_g = sum(r["cost"] for r in myopic) / n, sum(r["cost"] for r in ours) / n
+    print(f"\ncost per task: myopic oracle {c_m:.1f} ({t_myopic:.0f} s), anticipatory guided {c_g:.1f} "
+          f"({t_guided:.0f} s, success {sum(r['success'] for r in ours)}/{n}); saving {(c_m - c_g) / c_m:+.1%}")
     if args.out:
-        write_json(args.out, {"agent": "myopic-internal", "domain": model.name, "layout": model.layout,
-                              "seed": args.seed, "tasks": len(outcomes),
-                              "cost_per_task": total / len(outcomes),
-                              "per_task": [vars(o) for o in outcomes]})
+        write_json(args.out, {"domain": model.name, "layout": model.layout, "sequence": seq.id,
+                              "checkpoint": checkpoint, "config": guided.config,
+                              "myopic_cost_per_task": c_m, "guided_cost_per_task": c_g,
+                              "myopic": myopic, "guided": ours})
 
 
 if __name__ == "__main__":

@@ -19,6 +19,7 @@ AGENTS = {
     "clairvoyant": ("oracles.clairvoyant", "ClairvoyantOracle"),
     "random": ("experiments.random_policy", "RandomPolicy"),
     "rl-greedy": ("learning.greedy", "GreedyValuePolicy"),
+    "rl-guided": ("learning.guided", "ValueGuidedPlanner"),
 }
 
 

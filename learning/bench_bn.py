@@ -25,7 +25,8 @@ from planning import cli
 from planning.atomic import write_json
 from planning.domain.batched import BatchedModel
 from planning.domain.compiler import compile_domain
-from planning.search.bellman_novelty import DEPTH_CAP, PREFETCH, THESIS_BETA, THESIS_BUDGET, bellman_novelty_search
+from learning.guided import search_defaults
+from planning.search.bellman_novelty import DEPTH_CAP, PREFETCH, bellman_novelty_search
 from planning.search.optimal import optimal_plan
 from planning.value import ZeroValue
 from planning.world.task_stream import PersistentWorld, draw_tasks
@@ -100,8 +101,9 @@ def main() -> None:
         from planning.world.sequences import load
         seq = load(model, [args.sequence])[0]
         tasks, reset = seq.tasks[:args.tasks], seq.reset_seed
-    budget = args.budget if args.budget is not None else THESIS_BUDGET.get(model.layout, 5000)
-    beta = args.beta if args.beta is not None else THESIS_BETA.get(model.layout, 1.25)
+    defaults = search_defaults(model)
+    budget = args.budget if args.budget is not None else defaults.get("budget", 5000)
+    beta = args.beta if args.beta is not None else defaults.get("beta", 1.25)
     r = benchmark(model, value, tasks, reset, budget, beta, args.depth_cap, args.prefetch, not args.quiet)
     sh = r["shares"]
     print(f"{model.layout}: {r['searched_tasks']} searched tasks, budget {budget}, beta {beta:g}, "

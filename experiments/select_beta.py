@@ -1,0 +1,85 @@
+"""Choose the search's cost slack β as the thesis did (Appendix A.1): the cheapest on the development sequences.
+
+Evaluates the value-guided agent (`rl-guided`) with each β on the development
+split (sequences 01, 03, 06), picks the β with the lowest cost per task (ties:
+the smaller β), then plays the chosen β on all ten sequences and reports the
+development and held-out splits separately, so the held-out figure is free of
+the choice.
+
+    python -m experiments.select_beta --layout three-room --checkpoint checkpoints/rl-anticipatory-three-room-seed0.pt [--betas 1.25,3,6,8]
+
+Each evaluation is an ordinary results file under --results (resumable); the
+selection is written to OUT (default results/beta-selection-<checkpoint>.json).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from learning.guided import ValueGuidedPlanner
+from oracles.myopic import reference_path
+from planning import cli
+from planning.atomic import write_json
+from planning.domain.compiler import compile_domain
+from planning.errors import DomainError
+from planning.world.runner import evaluate, improvement
+from planning.world.sequences import COUNT, DEVELOPMENT
+
+THESIS_BETAS = (1.25, 3.0, 6.0, 8.0)
+
+
+def split_costs(model, result: dict) -> dict:
+    """Cost per task, success rate and improvement over the myopic oracle on the development and held-out splits."""
+    out = {}
+    for split, ids in (("development", set(DEVELOPMENT)), ("held-out", set(range(COUNT)) - set(DEVELOPMENT))):
+        seqs = [s for s in result["per_sequence"] if s["id"] in ids]
+        if not seqs:
+            continue
+        tasks = sum(s["tasks"] for s in seqs)
+        cost = sum(s["cost"] for s in seqs) / tasks
+        out[split] = {"sequences": [s["id"] for s in seqs], "tasks": tasks, "cost_per_task": round(cost, 2),
+                      "success_rate": round(sum(s["successes"] for s in seqs) / tasks, 4),
+                      "improvement_vs_myopic": improvement(cost, model, [s["id"] for s in seqs],
+                                                           reference_path(model))}
+    return out
+
+
+def main() -> None:
+    p = cli.parser(__doc__.splitlines()[0])
+    p.add_argument("--checkpoint", required=True, help="Q-network checkpoint whose value guides the search")
+    p.add_argument("--betas", default=",".join(f"{b:g}" for b in THESIS_BETAS), help="candidate β (default: %(default)s)")
+    p.add_argument("--budget", type=int, default=None, help="expansions per task (default: domain.toml [search])")
+    p.add_argument("--results", default="results/beta", help="folder of the per-β results files")
+    p.add_argument("--no-final", action="store_true", help="stop after choosing; do not play all ten sequences")
+    args = p.parse_args()
+    try:
+        betas = [float(b) for b in args.betas.split(",")]
+    except ValueError:
+        raise DomainError("--betas", f"'{args.betas}' is not a comma-separated list of numbers") from None
+    model = compile_domain(args.domain, args.layout)
+    out = args.out or f"results/beta-selection-{Path(args.checkpoint).stem}.json"
+    rows = []
+    for beta in betas:
+        agent = ValueGuidedPlanner(model, args.checkpoint, beta=beta, budget=args.budget)
+        r = evaluate(model, agent, list(DEVELOPMENT), f"{args.results}/{agent.run_name}.json",
+                     reference=reference_path(model))
+        rows.append({"beta": beta, "cost_per_task": r["cost_per_task"], "success_rate": r["success_rate"],
+                     "improvement_vs_myopic": r["improvement_vs_myopic"], "file": f"{args.results}/{agent.run_name}.json"})
+        print(f"β = {beta:g}: development cost per task {r['cost_per_task']}, success {r['success_rate']}")
+    best = min(rows, key=lambda r: (r["cost_per_task"], r["beta"]))
+    result = {"domain": model.name, "layout": model.layout, "checkpoint": args.checkpoint,
+              "development": list(DEVELOPMENT), "candidates": rows, "chosen_beta": best["beta"]}
+    print(f"chosen β = {best['beta']:g}")
+    if not args.no_final:
+        agent = ValueGuidedPlanner(model, args.checkpoint, beta=best["beta"], budget=args.budget)
+        final = f"{args.results}/{agent.run_name}.json"
+        r = evaluate(model, agent, list(range(COUNT)), final, reference=reference_path(model))
+        result["final"] = {"file": final, "cost_per_task": r["cost_per_task"], "success_rate": r["success_rate"],
+                           "improvement_vs_myopic": r["improvement_vs_myopic"], "splits": split_costs(model, r)}
+        for split, s in result["final"]["splits"].items():
+            print(f"{split:12s} cost per task {s['cost_per_task']}, improvement vs myopic {s['improvement_vs_myopic']}")
+    write_json(out, result)
+    print(f"wrote {out}")
+
+
+if __name__ == "__main__":
+    cli.run(main)
