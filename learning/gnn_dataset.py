@@ -413,6 +413,26 @@ def dataset_class():
             self.load(self.processed_paths[0])
             self.meta = json.loads((Path(root) / "meta.json").read_text())
 
+        def _process(self):
+            """Only check processed/data.pt is there: torch_geometric's own step would torch.load a
+            processed/pre_transform.pt or pre_filter.pt with weights_only=False (we write neither)."""
+            if not (Path(self.processed_dir) / "data.pt").is_file():
+                self.process()
+
+        def load(self, path, data_cls=None):
+            """InMemoryDataset.load with weights_only=True and no fallback: torch_geometric's own
+            loader retries a refused file with weights_only=False, which would run its code."""
+            from torch_geometric.data import Data
+
+            from learning.plain import load_plain
+
+            out = load_plain(path, "gnn dataset")
+            if not isinstance(out, tuple) or len(out) not in (2, 3):
+                raise DomainError(path, "not a gnn_dataset data.pt (a (data, slices[, class]) tuple expected)")
+            data, self.slices = out[0], out[1]
+            cls = out[2] if len(out) == 3 else (data_cls or Data)
+            self.data = cls.from_dict(data) if isinstance(data, dict) else data
+
         @property
         def raw_file_names(self):
             return []

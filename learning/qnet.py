@@ -25,6 +25,7 @@ from planning.atomic import write_bytes
 from planning.errors import DomainError
 
 from .encoding import Encoding
+from .plain import from_plain, load_plain, to_plain
 
 # Transition kinds in the replay buffer: how the target bootstraps (Algorithm 1).
 CONTINUE = 0     # within the task, or the per-task timeout: bootstrap the same task (§4.1.3 a)
@@ -330,24 +331,21 @@ def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict,
 
 # ---- checkpoints ---------------------------------------------------------
 def save_checkpoint(path, payload: dict) -> Path:
-    """Write a torch checkpoint atomically: a temporary file beside it, then os.replace."""
+    """Write a torch checkpoint atomically (a temporary file beside it, then os.replace), in plain
+    types only (`learning.plain`): it loads with weights_only=True."""
     buf = io.BytesIO()
-    torch.save(payload, buf)
+    torch.save(to_plain(payload), buf)
     return write_bytes(path, buf.getvalue())
 
 
 def read_checkpoint(path) -> dict:
-    """A checkpoint's payload; a missing or corrupt file is a one-line DomainError."""
+    """A checkpoint's payload, loaded with weights_only=True (nothing in the file runs); a missing,
+    corrupt, foreign or hostile file is a one-line DomainError naming it."""
     path = Path(path)
-    if not path.is_file():
-        raise DomainError(path, "no such checkpoint")
-    try:
-        payload = torch.load(path, map_location="cpu", weights_only=False)
-    except Exception as e:   # torch raises many types for a truncated or foreign file
-        raise DomainError(path, f"not a readable checkpoint ({type(e).__name__})") from None
+    payload = load_plain(path, "checkpoint")
     if not isinstance(payload, dict) or "net" not in payload or "dims" not in payload:
         raise DomainError(path, "not a Q-network checkpoint (no 'net' or 'dims')")
-    return payload
+    return from_plain(payload)
 
 
 def network_payload(net: FactoredQNet, enc: Encoding, extra: dict | None = None) -> dict:

@@ -136,3 +136,30 @@ def test_augmented_build_is_the_same_for_any_number_of_workers(minimal, tmp_path
     rows = [json.loads((tmp_path / "1" / f"prepared-rollout-{i}.json").read_text()) for i in range(3)]
     assert [r["seed"] for r in rows] == [1, 2, 3]
     assert any(t["clause"] for r in rows for t in r["tasks"])              # tasks planned with a clause
+
+
+class _CreatesFile:
+    """A pickle whose loading would create a file (the code-execution hole of a weights_only=False load)."""
+
+    def __init__(self, path):
+        self.path = str(path)
+
+    def __reduce__(self):
+        return (open, (self.path, "w"))
+
+
+def test_a_hostile_dataset_file_is_refused_and_nothing_of_it_runs(tmp_path):
+    (tmp_path / "processed").mkdir()
+    (tmp_path / "meta.json").write_text("{}")
+    marker = tmp_path / "pwned"
+    torch.save((_CreatesFile(marker), {}, None), tmp_path / "processed" / "data.pt")
+    with pytest.raises(DomainError) as e:
+        load_dataset(tmp_path)
+    assert "\n" not in str(e.value) and str(tmp_path / "processed" / "data.pt") in str(e.value)
+    assert "refused as a gnn dataset" in str(e.value)
+    assert not marker.exists()
+    # torch_geometric's own step would load processed/pre_transform.pt with weights_only=False
+    torch.save(_CreatesFile(marker), tmp_path / "processed" / "pre_transform.pt")
+    with pytest.raises(DomainError):
+        load_dataset(tmp_path)
+    assert not marker.exists()
