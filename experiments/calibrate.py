@@ -121,6 +121,7 @@ def main() -> None:
     if args.margin < 0:
         raise DomainError("--margin", f"{args.margin} is negative")
     model = compile_domain(args.domain, args.layout)
+    cli.check_writable(args.out or calibration_path(model))     # before the rollout, not after it
     start = time.perf_counter()
     if args.cached_only:
         records = stored_records(model, args.seed, args.tasks, args.planner, args.cache_dir)

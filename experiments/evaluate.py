@@ -35,16 +35,19 @@ def main() -> None:
     p.add_argument("--agent", required=True, help=f"one of: {', '.join(AGENTS)} (--list-agents describes them)")
     p.add_argument("--list-agents", action="store_true", help="print the registered agents and exit")
     p.add_argument("--force", action="store_true", help="replace a finished results file made otherwise")
+    p.add_argument("--strict", action="store_true", help="exit non-zero if any planner timed out or crashed")
     cls = agent_class(known.agent) if known.agent else None
     if cls is not None:
         cls.options(p.add_argument_group(f"{known.agent} options"))
     args = p.parse_args()
+    ids = cli.parse_ids(args.sequences)
     model = compile_domain(args.domain, args.layout)
     agent = cls.from_args(args, model)
     out = args.out or default_out(agent, model)
     if hasattr(agent, "set_log"):
+        cli.check_writable(f"{out}.windows.jsonl")
         agent.set_log(f"{out}.windows.jsonl")
-    r = evaluate(model, agent, cli.parse_ids(args.sequences), out, reference=reference_path(model), force=args.force)
+    r = evaluate(model, agent, ids, out, reference=reference_path(model), force=args.force, strict=args.strict)
     print(f"{r['agent']} {r['layout']}: cost per task {r['cost_per_task']}, actions per task "
           f"{r['actions_per_task']}, success rate {r['success_rate']}, "
           f"improvement vs myopic {r['improvement_vs_myopic']}; wrote {out}", file=sys.stdout)

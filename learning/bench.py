@@ -107,6 +107,7 @@ def main() -> None:
     args = p.parse_args()
     torch.set_num_threads(1)
     model = compile_domain(args.domain, args.layout)
+    cli.check_writable(args.out or f"results/dqn-bench-{model.layout}.json")
     out = {"domain": model.name, "layout": model.layout, "steps": args.steps, "updates": args.updates,
            "threads": torch.get_num_threads(), "machine": f"{platform.machine()} {platform.python_implementation()} "
                                                            f"{platform.python_version()}"}

@@ -563,7 +563,7 @@ def _prepared(work: Workers, cfg: DatasetConfig, n: int, faithful: list[int], ou
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0], seed=True)
+    p = cli.parser(__doc__.splitlines()[0], seed=True, out="folder")
     p.add_argument("--augmented", action="store_true", help="add counterfactual prepared states")
     p.add_argument("--n-states", type=int, default=2000, help="faithful states (default: %(default)s)")
     p.add_argument("--n-prepared", type=int, default=None, help="prepared states (default: 3 x n-states)")

@@ -145,12 +145,15 @@ def main() -> None:
     p = cli.parser(__doc__.splitlines()[0], sequences=True)
     ClairvoyantOracle.options(p)
     p.add_argument("--force", action="store_true", help="replace a finished results file made otherwise")
+    p.add_argument("--strict", action="store_true", help="exit non-zero if any planner timed out or crashed")
     args = p.parse_args()
+    ids = cli.parse_ids(args.sequences)
     model = compile_domain(args.domain, args.layout)
     agent = ClairvoyantOracle.from_args(args, model)
     out = args.out or default_out(agent, model)
+    cli.check_writable(f"{out}.windows.jsonl")
     agent.set_log(f"{out}.windows.jsonl")
-    r = evaluate(model, agent, cli.parse_ids(args.sequences), out, reference=reference_path(model), force=args.force)
+    r = evaluate(model, agent, ids, out, reference=reference_path(model), force=args.force, strict=args.strict)
     print(f"\nclairvoyant K={args.K}, {model.name} {model.layout}, sequences {args.sequences}")
     print(f"cost per task {r['cost_per_task']}, improvement vs myopic {r['improvement_vs_myopic']}, "
           f"share optimal {r['share_optimal']}, window seconds median {r['median_window_seconds']} "

@@ -69,6 +69,8 @@ class MyopicOracle(Planner):
         if self.planner == "fast-downward":
             r = fd.solve(self._model, state, task, self.time_limit)
             info = {"status": r.status.value, "planner_cost": r.cost, "expansions": r.expansions}
+            if r.status != fd.Status.SOLVED and r.message:
+                info["message"] = r.message        # why: Fast Downward's status and the tail of its log
             return Reply(r.plan if r.status == fd.Status.SOLVED else None, info)
         r = optimal_plan(self._bm, state, task, time_limit=self.time_limit)
         status = "solved" if r.plan is not None else ("unsolvable" if r.complete else "out-of-time")
@@ -138,11 +140,13 @@ def main() -> None:
     p = cli.parser(__doc__.splitlines()[0], sequences=True)
     MyopicOracle.options(p)
     p.add_argument("--force", action="store_true", help="replace a finished results file made otherwise")
+    p.add_argument("--strict", action="store_true", help="exit non-zero if any planner timed out or crashed")
     args = p.parse_args()
+    ids = cli.parse_ids(args.sequences)
     model = compile_domain(args.domain, args.layout)
     agent = MyopicOracle.from_args(args, model)
     out = args.out or default_out(agent, model)
-    r = evaluate(model, agent, cli.parse_ids(args.sequences), out, reference=reference_path(model), force=args.force)
+    r = evaluate(model, agent, ids, out, reference=reference_path(model), force=args.force, strict=args.strict)
     print(f"\nmyopic oracle ({args.planner}), {model.name} {model.layout}, sequences {args.sequences}: "
           f"{r['tasks']} tasks in {r['wall_seconds']}s")
     print(type_table(r))

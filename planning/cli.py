@@ -5,14 +5,21 @@ import argparse
 import ast
 import dataclasses
 import inspect
+import os
 import sys
+import tempfile
 import textwrap
+from pathlib import Path
 
 from planning.errors import DomainError
 
 
-def parser(description: str, sequences: bool = False, seed: bool = False) -> argparse.ArgumentParser:
-    """An argument parser with the common options; --sequences and --seed only where a tool uses them."""
+def parser(description: str, sequences: bool = False, seed: bool = False, out: str = "file") -> argparse.ArgumentParser:
+    """An argument parser with the common options; --sequences and --seed only where a tool uses them.
+
+    --out is checked as it is parsed, before any work starts: `out` "file" (a
+    results file) or "folder" (a folder the tool writes into).
+    """
     p = argparse.ArgumentParser(description=description)
     p.add_argument("--domain", default="domains/restaurant", help="domain folder (default: %(default)s)")
     p.add_argument("--layout", default=None, help="layout name (default: the folder's first)")
@@ -20,20 +27,83 @@ def parser(description: str, sequences: bool = False, seed: bool = False) -> arg
         p.add_argument("--sequences", default="0-9", help="canonical sequences, e.g. 0-9 or 1,3,6")
     if seed:
         p.add_argument("--seed", type=int, default=0, help="random seed (default: %(default)s)")
-    p.add_argument("--out", default=None, help="results JSON to write")
+    check = writable_folder if out == "folder" else writable_file
+    p.add_argument("--out", default=None, type=check,
+                   help="results folder to write" if out == "folder" else "results JSON to write")
     return p
 
 
 def parse_ids(text: str) -> list[int]:
-    """'0-9' -> [0..9]; '1,3,6' -> [1, 3, 6]."""
+    """'0-9' -> [0..9]; '1,3,6' -> [1, 3, 6]; an empty or backwards range is an error."""
     ids = []
     for part in text.split(","):
         lo, _, hi = part.partition("-")
         try:
-            ids += list(range(int(lo), int(hi) + 1)) if hi else [int(lo)]
+            lo_i, hi_i = int(lo), int(hi) if hi else None
         except ValueError:
             raise DomainError("--sequences", f"'{text}' is not a list like 0-9 or 1,3,6") from None
+        if hi_i is not None and hi_i < lo_i:
+            raise DomainError("--sequences", f"'{part}' is an empty range (from {lo_i} down to {hi_i})")
+        ids += list(range(lo_i, hi_i + 1)) if hi_i is not None else [lo_i]
+    if len(set(ids)) != len(ids):
+        raise DomainError("--sequences", f"'{text}' names a sequence twice")
     return ids
+
+
+def check_writable(path, folder: bool = False) -> Path:
+    """`path` if a file (or, with `folder`, a folder) can be written there; else a one-line DomainError.
+
+    Run before any work starts, so an unwritable output never costs a finished
+    run: an existing directory where a file is meant (or a file where a folder
+    is), a path under a regular file, a folder this process may not write in.
+    Nothing is created (a missing parent folder is made when the file is written).
+    """
+    path = Path(path)
+    if not folder and path.is_dir():
+        raise DomainError(path, "is a directory, not a file to write")
+    if folder and path.exists() and not path.is_dir():
+        raise DomainError(path, "is a file, not a folder to write into")
+    probe = path if folder and path.is_dir() else path.parent
+    while not probe.exists():
+        if probe.is_symlink():
+            raise DomainError(path, f"cannot be written: {probe} is a broken link")
+        probe = probe.parent
+    if not probe.is_dir():
+        raise DomainError(path, f"cannot be written: {probe} is not a directory")
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise DomainError(path, f"cannot be written: no permission to write in {probe}")
+    try:                      # what os.access misses: a read-only file system, root's squashed mounts
+        fd, tmp = tempfile.mkstemp(dir=probe, prefix=".write-check.", suffix=".tmp")
+        os.close(fd)
+        os.unlink(tmp)
+    except OSError as e:
+        raise DomainError(path, f"cannot be written in {probe}: {e.strerror}") from None
+    return path
+
+
+def writable_file(text: str) -> str:
+    """An argparse type for --out: the path, checked writable as a file."""
+    check_writable(text)
+    return text
+
+
+def writable_folder(text: str) -> str:
+    """An argparse type for a folder --out: the path, checked writable as a folder."""
+    check_writable(text, folder=True)
+    return text
+
+
+def end_progress_lines() -> None:
+    """Close every open progress bar, so that what is printed next starts on its own line."""
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        return
+    for bar in list(getattr(tqdm, "_instances", [])):
+        try:
+            bar.close()
+        except Exception:     # a bar half torn down by the error itself
+            pass
 
 
 def run(main) -> None:
@@ -41,9 +111,11 @@ def run(main) -> None:
     try:
         main()
     except DomainError as e:
+        end_progress_lines()
         print(f"error: {e}", file=sys.stderr)
         sys.exit(2)
     except KeyboardInterrupt:
+        end_progress_lines()
         print("interrupted", file=sys.stderr)
         sys.exit(130)
 

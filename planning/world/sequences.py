@@ -53,10 +53,12 @@ def load(model, ids=None) -> list[Sequence]:
     for path in files:
         try:
             rec = json.loads(path.read_text())
+            if not isinstance(rec, dict) or not isinstance(rec.get("tasks"), list):
+                raise TypeError("not an object with a list of tasks")
             seq = Sequence(int(rec["id"]), int(rec["reset_seed"]), [model.tasks.get(n) for n in rec["tasks"]])
         except DomainError as e:
             raise DomainError(path, e.reason) from None
-        except (ValueError, KeyError, TypeError) as e:
+        except (ValueError, KeyError, TypeError, UnicodeDecodeError) as e:
             raise DomainError(path, f"malformed sequence file ({type(e).__name__}: {e})") from None
         if ids is None or seq.id in ids:
             out.append(seq)
@@ -72,10 +74,18 @@ def main() -> None:
     args = p.parse_args()
     model = compile_domain(args.domain, args.layout)
     folder = sequence_dir(model)
+    if not args.check:
+        cli.check_writable(folder, folder=True)
     for rec in generate(model):
         path = folder / f"seq-{rec['id']:02d}.json"
         if args.check:
-            if not path.is_file() or json.loads(path.read_text()) != rec:
+            if not path.is_file():
+                raise DomainError(path, "missing (run without --check to write it)")
+            try:
+                stored = json.loads(path.read_text())
+            except (json.JSONDecodeError, UnicodeDecodeError) as e:
+                raise DomainError(path, f"malformed sequence file ({type(e).__name__}: {e})") from None
+            if stored != rec:
                 raise DomainError(path, "differs from the regenerated sequence")
         else:
             write_json(path, rec)

@@ -42,11 +42,25 @@ def seq(model, names, reset_seed=5):
     return Sequence(0, reset_seed, [model.tasks.get(n) for n in names])
 
 
+def optimal_cost(model, state, name) -> int:
+    from planning.domain.batched import BatchedModel
+    from planning.search.optimal import optimal_plan
+    return optimal_plan(BatchedModel(model), state, model.tasks.get(name)).cost
+
+
 def test_abandonment_and_auto_completion(two_room):
+    """An abandoned task is charged what it executed plus the optimal completion from where it was left."""
     s = seq(two_room, ["serve-water(servingtable)", "pick-place(plate_0, servingtable)"])
     rows = play_sequence(two_room, Oscillate(), s)
+    left = two_room.reset_state(5)              # 64 moves between countertop and shelf: back where it began
+    for _ in range(64):
+        left = two_room.apply(left, Oscillate.act(type("O", (), {"model": two_room})(), left, None))
+    rest = optimal_cost(two_room, left, "serve-water(servingtable)")
     assert [(r["success"], r["actions"], r["cost"], r["auto"]) for r in rows] == \
-        [(False, 64, 64 * 25, False), (True, 0, 0, True)]
+        [(False, 64, 64 * 25 + rest, False), (True, 0, 0, True)]
+    assert (rows[0]["executed_cost"], rows[0]["completion_cost"], rows[0]["charged_cost"]) == \
+        (64 * 25, rest, 64 * 25 + rest)
+    assert "executed_cost" not in rows[1]       # a completed task's row is as it always was
 
 
 def test_planner_failure_and_short_plan_fail_the_task(two_room):
@@ -55,7 +69,11 @@ def test_planner_failure_and_short_plan_fail_the_task(two_room):
     agent = Scripted({"serve-water(servingtable)": Reply(None, {"status": "out-of-time"}),
                       "make-coffee(servingtable)": Reply([m.action("pick(cup_0, countertop)")])})
     rows = play_sequence(m, agent, s, bar=None)
-    assert [(r["success"], r["cost"], r["actions"]) for r in rows] == [(False, 0, 0), (False, 100, 1)]
+    start = m.reset_state(5)
+    water = optimal_cost(m, start, "serve-water(servingtable)")
+    coffee = optimal_cost(m, m.apply(start, m.action("pick(cup_0, countertop)")), "make-coffee(servingtable)")
+    assert [(r["success"], r["executed_cost"], r["actions"]) for r in rows] == [(False, 0, 0), (False, 100, 1)]
+    assert [r["cost"] for r in rows] == [water, 100 + coffee]        # a failure never costs nothing
     assert rows[0]["status"] == "out-of-time"
 
 
@@ -127,3 +145,81 @@ def test_canonical_sequences_regenerate(restaurant):
         assert len(s.tasks) == 50
     on_disk = json.loads((restaurant.folder / "sequences" / restaurant.layout / "seq-03.json").read_text())
     assert on_disk == generate(restaurant)[3] and on_disk["split"] == "development"
+
+
+class GivesUp(Planner):
+    """Never finds a plan: every task not already satisfied fails with the given status."""
+
+    name = "gives-up"
+
+    def __init__(self, status="out-of-time"):
+        self.status = status
+
+    def plan(self, state, task, upcoming):
+        return Reply(None, {"status": self.status})
+
+
+def short_sequences(monkeypatch, n):
+    import planning.world.runner as ev
+
+    real_load = ev.load
+    monkeypatch.setattr(ev, "load", lambda model, ids: [Sequence(i, 100 + i, s.tasks[:n])
+                                                        for i, s in zip(ids, real_load(model, ids))])
+
+
+def test_failures_are_charged_and_a_planner_fault_warns(two_room, tmp_path, monkeypatch, capsys):
+    """An agent that plans nothing is charged every task's optimal cost: never cheaper than doing them."""
+    monkeypatch.chdir(tmp_path)
+    short_sequences(monkeypatch, 5)
+    out = tmp_path / "r.json"
+    r = evaluate(two_room, GivesUp(), [0], out, progress=False)
+    failed = [x for x in r["per_task"] if not x["success"]]
+    assert failed and all(x["executed_cost"] == 0 and x["cost"] == x["charged_cost"] == x["completion_cost"] > 0
+                          for x in failed)
+    assert r["cost_per_task"] > 0
+    assert r["cost_per_task"] == pytest.approx(sum(x["cost"] for x in r["per_task"]) / 5, abs=0.01)
+    assert r["executed_cost_per_task"] == 0.0 and r["planner_faults"] == len(failed)
+    assert "charged" in r["failure_accounting"]
+    assert r["per_sequence"][0]["cost"] == sum(x["cost"] for x in r["per_task"])
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and err.startswith(f"warning: {len(failed)} of 5 tasks ended in a planner timeout")
+    # --strict: the results are written, then the run is an error naming the first fault
+    out.unlink()
+    with pytest.raises(DomainError, match=r"--strict: \d+ of 5 tasks .* sequence 0 task \d+"):
+        evaluate(two_room, GivesUp("crashed"), [0], out, progress=False, strict=True)
+    assert json.loads(out.read_text())["planner_faults"] == len(failed)
+    # an unsolvable verdict is a failure (charged) but not a planner fault
+    out.unlink()
+    r = evaluate(two_room, GivesUp("unsolvable"), [0], out, progress=False, strict=True)
+    assert r["planner_faults"] == 0
+
+
+def test_rows_written_before_failures_were_charged_are_played_again(two_room, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    short_sequences(monkeypatch, 5)
+    out = tmp_path / "r.json"
+    r = evaluate(two_room, GivesUp(), [0, 1], out, progress=False)
+    data = json.loads(out.read_text())
+    for x in data["per_task"]:                  # sequence 0 as the old runner wrote it: failures cost 0
+        if x["sequence"] == 0 and not x["success"]:
+            for k in ("executed_cost", "completion_cost", "charged_cost"):
+                del x[k]
+            x["cost"] = 0
+    out.write_text(json.dumps(data))
+    again = evaluate(two_room, GivesUp(), [0, 1], out, progress=False)
+    assert [x["cost"] for x in again["per_task"]] == [x["cost"] for x in r["per_task"]]
+
+
+def test_a_sequence_cut_short_in_a_saved_file_is_refused(two_room, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    short_sequences(monkeypatch, 5)
+    out = tmp_path / "r.json"
+    evaluate(two_room, GivesUp(), [0], out, progress=False)
+    data = json.loads(out.read_text())
+    partial = tmp_path / "r.json.partial.json"
+    partial.write_text(json.dumps({"agent": "gives-up", "layout": "two-room", "config": {},
+                                   "done": {"0": data["per_task"][:3]}}))
+    before = out.read_text()
+    with pytest.raises(DomainError, match=r"partial results, sequence 0: 3 rows for its 5 tasks"):
+        evaluate(two_room, GivesUp(), [0], out, progress=False)
+    assert out.read_text() == before
