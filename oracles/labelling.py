@@ -35,6 +35,7 @@ import numpy as np
 from planning import cli
 from planning.atomic import write_json
 from planning.domain.batched import BatchedModel
+from planning.domain.grounding import atom_text
 from planning.errors import DomainError
 from planning.heuristics.hmax import INF_64 as INF
 from planning.heuristics import choose, names
@@ -448,6 +449,33 @@ def _pddl_init_atoms(path, text: str) -> list[str]:
     return atoms
 
 
+def check_possible(model, state: int, where) -> None:
+    """A one-line error if two atoms of `state` never hold together in any world the layout can reach
+    (the robot in two places, an object held and on a table): mutex pairs from every reset world."""
+    from itertools import islice, product
+
+    from planning.heuristics.lmcut_pc import MutexPairs
+
+    starts = []
+    for picks in islice(product(*[range(len(choices)) for choices, _ in model.resets]), 256):
+        s = model.init
+        for (choices, _), k in zip(model.resets, picks):
+            every = 0
+            for c in choices:
+                every |= c
+            s = (s & ~every) | choices[k]
+        starts.append(s)
+    mutex = MutexPairs(model, starts)
+    if mutex.respects(state):
+        return
+    true = [i for i in range(model.n_atoms) if state >> i & 1]
+    for i in true:
+        for j in true:
+            if i < j and mutex.matrix[i, j]:
+                raise DomainError(where, f"an impossible state: {atom_text(model.atoms[i])} and "
+                                         f"{atom_text(model.atoms[j])} never hold together in this layout")
+
+
 def summary(model, label: Label) -> str:
     """C_AP and every task's cost, one line per task, for the command line."""
     lines = [f"{model.name} {model.layout}: C_AP = {label.c_ap:.2f} over {len(label.costs)} tasks "
@@ -466,12 +494,22 @@ def main() -> None:
     p.add_argument("--heuristic", default="pdb", choices=names("multi-goal"), help="(default: %(default)s)")
     p.add_argument("--time-limit", type=float, default=None, help="seconds for the search (default: none)")
     args = p.parse_args()
+    if args.time_limit is not None and not args.time_limit > 0:
+        raise DomainError("--time-limit", f"must be positive, not {args.time_limit}")
     model = compile_domain(args.domain, args.layout)
     state = model.init if args.state is None else read_state(model, args.state)
+    where = args.state or f"the start state of {model.layout}"
+    if args.state is not None:
+        check_possible(model, state, where)
     labeller = Labeller(model, args.heuristic, args.time_limit)
     label = labeller.label(state)
     if not label.complete:
-        raise DomainError(args.state or model.layout, f"time limit of {args.time_limit}s reached before every task was solved")
+        raise DomainError(where, f"time limit of {args.time_limit}s reached before every task was solved")
+    unsolvable = [t.name for t, c in zip(model.tasks, label.costs) if c < 0]
+    if unsolvable:
+        more = f" (and {len(unsolvable) - 1} more of the {len(model.tasks)} tasks)" if len(unsolvable) > 1 else ""
+        raise DomainError(where, f"task {unsolvable[0]} cannot be completed from this state{more}, "
+                                 "so C_AP is undefined")
     print(summary(model, label))
     if args.out:
         write_json(args.out, {"domain": model.name, "layout": model.layout, "heuristic": labeller.heuristic,

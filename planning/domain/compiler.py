@@ -16,7 +16,7 @@ from planning.domain.folder import DomainSource, read_domain
 from planning.errors import DomainError
 from planning.domain.grounding import GroundVariant, Grounder, atom_text, parse_atom_text
 from planning.domain.model import Model, Op
-from planning.domain.tasks import compile_tasks
+from planning.domain.tasks import compile_tasks, probability
 
 
 def compile_domain(folder: str | Path = "domains/restaurant", layout: str | None = None) -> Model:
@@ -167,6 +167,9 @@ def _reset_choices(src: DomainSource, grounder: Grounder, fluents: set) -> list:
         if not choices:
             raise DomainError(where, f"[[reset]] entry {i + 1} has no choices")
         probs = entry.get("probabilities", [1.0 / len(choices)] * len(choices))
+        if not isinstance(probs, list):
+            raise DomainError(where, f"[[reset]] entry {i + 1}: probabilities must be a list")
+        probs = [probability(q, where, f"[[reset]] entry {i + 1}: probability {k + 1}") for k, q in enumerate(probs)]
         if len(probs) != len(choices) or abs(sum(probs) - 1.0) > 1e-9:
             raise DomainError(where, f"[[reset]] entry {i + 1}: probabilities must match choices and sum to 1")
         keys = []

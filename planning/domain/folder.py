@@ -66,8 +66,16 @@ def _parse(reader: PDDLReader, path: Path, kind: str):
     except DomainError:
         raise
     except Exception as e:  # tarski raises many types; all mean the file is bad
-        reason = " ".join(str(e).split()) or type(e).__name__
-        raise DomainError(path, f"cannot parse PDDL {kind}: {reason}") from None
+        raise DomainError(path, f"cannot parse PDDL {kind}: {parser_reason(e)}") from None
+
+
+def parser_reason(e: Exception) -> str:
+    """A parser's message on one line, without tarski's empty "(error msg: None)" tail."""
+    import re
+
+    reason = " ".join(str(e).split())
+    reason = re.sub(r"\s*\(error msg: None\)", "", reason)
+    return reason or type(e).__name__
 
 
 def read_domain(folder: str | Path, layout: str) -> DomainSource:

@@ -29,10 +29,15 @@ def atom_text(key: AtomKey) -> str:
 
 
 def parse_atom_text(text: str) -> AtomKey:
-    """'(at a b)' -> ('at', 'a', 'b')."""
-    parts = text.strip().strip("()").split()
-    if not parts or not text.strip().startswith("("):
-        raise ValueError(f"not a ground atom: {text!r}")
+    """'(at a b)' -> ('at', 'a', 'b'); anything but one balanced pair of parentheses around
+    names is a ValueError (an unbalanced parenthesis, a nested term, an empty atom)."""
+    t = text.strip()
+    inner = t[1:-1] if t.startswith("(") and t.endswith(")") else None
+    if inner is None or "(" in inner or ")" in inner:
+        raise ValueError(f"not a ground atom like (at cup_0 shelf): {text!r}")
+    parts = inner.split()
+    if not parts:
+        raise ValueError(f"not a ground atom like (at cup_0 shelf): {text!r} is empty")
     return tuple(parts)
 
 

@@ -98,7 +98,10 @@ class Model:
         """A state from atom texts '(at cup_0 shelf)' or keys; unknown atoms are an error."""
         s = 0
         for a in atoms:
-            key = parse_atom_text(a) if isinstance(a, str) else tuple(a)
+            try:
+                key = parse_atom_text(a) if isinstance(a, str) else tuple(a)
+            except ValueError as e:
+                raise DomainError(self.files["problem"], str(e)) from None
             if key not in self.atom_index:
                 raise DomainError(self.files["problem"], f"{atom_text(key)} is not a reachable fluent atom of this layout")
             s |= 1 << self.atom_index[key]

@@ -96,7 +96,13 @@ def compile_tasks(src, grounder) -> list:
     for name in src.task_schemas:
         if name not in table:
             raise DomainError(src.tasks_file, f"task type '{name}' has no [tasks.{name}] in domain.toml")
-    total = sum(float(t.get("probability", 0)) for t in table.values())
+    for ttype, entry in table.items():
+        if not isinstance(entry, dict):
+            raise DomainError(where, f"[tasks.{ttype}] is not a table")
+        if "probability" not in entry:
+            raise DomainError(where, f"task {ttype}: no probability")
+        probability(entry["probability"], where, f"task {ttype}: probability")
+    total = sum(float(t["probability"]) for t in table.values())
     if abs(total - 1.0) > 1e-9:
         raise DomainError(where, f"task type probabilities sum to {total:g}, not 1")
     out = []
@@ -131,7 +137,7 @@ def _argument_domain(ttype, pname, value, sort, grounder, where) -> list[tuple[s
     if isinstance(value, list):
         pairs = [(o, 1.0 / len(value)) for o in value]
     elif isinstance(value, dict):
-        pairs = [(o, float(q)) for o, q in value.items()]
+        pairs = [(o, probability(q, where, f"task {ttype}: probability of {o} for {pname}")) for o, q in value.items()]
         if abs(sum(q for _, q in pairs) - 1.0) > 1e-9:
             raise DomainError(where, f"task {ttype}: probabilities of {pname} do not sum to 1")
     else:
@@ -142,3 +148,12 @@ def _argument_domain(ttype, pname, value, sort, grounder, where) -> list[tuple[s
         if o not in allowed:
             raise DomainError(where, f"task {ttype}: object '{o}' is not of type {sort} for {pname}")
     return pairs
+
+
+def probability(value, where, what: str) -> float:
+    """A probability from domain.toml: a number in [0, 1]; anything else is a one-line error."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise DomainError(where, f"{what} is {value!r}, not a number")
+    if not 0.0 <= value <= 1.0:
+        raise DomainError(where, f"{what} is {value:g}, not between 0 and 1")
+    return float(value)
