@@ -211,6 +211,7 @@ class Trainer:
         self.model = model = compile_domain(cfg.domain, cfg.layout)
         cfg.layout = model.layout
         self.out = Path(cfg.out or f"runs/dqn/{model.name}-{model.layout}-{cfg.horizon}-seed{cfg.seed}")
+        cli.check_writable(self.out, folder=True)     # before the demonstrations are planned
         cfg.out = str(self.out)
         self.scale = cost_scale(model)
         self.r_goal = float(cfg.goal_reward if cfg.goal_reward is not None else goal_reward(model))
@@ -457,12 +458,33 @@ class Trainer:
         self._trim_metrics()
 
     def _trim_metrics(self) -> None:
-        """Drop metrics rows written after the checkpoint resumed from: those steps run again."""
+        """Drop metrics rows written after the checkpoint resumed from: those steps run again.
+
+        The file is appended to, so a run killed mid-write leaves a half-written
+        last line: it is dropped, and said so. A bad line before the last is an error.
+        """
         if not self.metrics.is_file():
             return
         step = lambda row: row.get("step", row.get("eval", {}).get("step", 0))
-        keep = [line for line in self.metrics.read_text().splitlines()
-                if line.strip() and step(json.loads(line)) <= self.step]
+        lines = [line for line in self.metrics.read_text(errors="replace").splitlines() if line.strip()]
+        keep = []
+        for k, line in enumerate(lines):
+            try:
+                row = json.loads(line)
+                if not isinstance(row, dict):
+                    raise ValueError("not a JSON object")
+                at = step(row)
+                if not isinstance(at, (int, float)):
+                    raise ValueError("no step")
+            except ValueError:
+                if k == len(lines) - 1:
+                    print(f"{self.metrics}: dropped a half-written last line (the run was stopped while "
+                          "writing it)", file=sys.stderr)
+                    break
+                raise DomainError(self.metrics, f"line {k + 1} is not a metrics row; delete the file or "
+                                                "pass --fresh to start over") from None
+            if at <= self.step:
+                keep.append(line)
         write_text(self.metrics, "".join(line + "\n" for line in keep))
 
 
@@ -491,8 +513,11 @@ def main() -> None:
     if last.is_file() and not args.fresh:
         trainer.resume(last)
         print(f"resumed {last} at step {trainer.step}", file=sys.stderr)
-    elif args.fresh:
-        trainer.metrics.unlink(missing_ok=True)
+    elif trainer.metrics.is_file():          # --fresh, or a run stopped before its first checkpoint
+        trainer.metrics.unlink()
+        if not args.fresh:
+            print(f"{trainer.metrics}: no last.pt to resume from; its rows are dropped and the run "
+                  "starts over", file=sys.stderr)
     row = trainer.train()
     best = trainer.best or {}
     print(f"{cfg.horizon} {cfg.layout} seed {cfg.seed}: step {trainer.step}, success (last 100) "
