@@ -8,8 +8,10 @@ the choice.
 
     python -m experiments.select_beta --layout three-room --checkpoint checkpoints/rl-anticipatory-three-room-seed0.pt [--betas 1.25,3,6,8]
 
-Each evaluation is an ordinary results file under --results (resumable); the
-selection is written to OUT (default results/beta-selection-<checkpoint>.json).
+Each evaluation is an ordinary results file under --results (resumable; the
+default β's file is the agent's own, so its development sequences are reused
+and extended, not replayed); the selection is written to OUT (default
+results/beta-selection-<checkpoint>.json).
 """
 from __future__ import annotations
 
@@ -48,7 +50,7 @@ def main() -> None:
     p.add_argument("--checkpoint", required=True, help="Q-network checkpoint whose value guides the search")
     p.add_argument("--betas", default=",".join(f"{b:g}" for b in THESIS_BETAS), help="candidate β (default: %(default)s)")
     p.add_argument("--budget", type=int, default=None, help="expansions per task (default: domain.toml [search])")
-    p.add_argument("--results", default="results/beta", help="folder of the per-β results files")
+    p.add_argument("--results", default="results", help="folder of the per-β results files (default: %(default)s)")
     p.add_argument("--no-final", action="store_true", help="stop after choosing; do not play all ten sequences")
     args = p.parse_args()
     try:
@@ -60,11 +62,12 @@ def main() -> None:
     rows = []
     for beta in betas:
         agent = ValueGuidedPlanner(model, args.checkpoint, beta=beta, budget=args.budget)
-        r = evaluate(model, agent, list(DEVELOPMENT), f"{args.results}/{agent.run_name}.json",
-                     reference=reference_path(model))
-        rows.append({"beta": beta, "cost_per_task": r["cost_per_task"], "success_rate": r["success_rate"],
-                     "improvement_vs_myopic": r["improvement_vs_myopic"], "file": f"{args.results}/{agent.run_name}.json"})
-        print(f"β = {beta:g}: development cost per task {r['cost_per_task']}, success {r['success_rate']}")
+        path = f"{args.results}/{agent.run_name}.json"
+        r = evaluate(model, agent, list(DEVELOPMENT), path, reference=reference_path(model))
+        dev = split_costs(model, r)["development"]          # a finished file may hold more sequences
+        rows.append({"beta": beta, **{k: dev[k] for k in ("cost_per_task", "success_rate", "improvement_vs_myopic")},
+                     "file": path})
+        print(f"β = {beta:g}: development cost per task {dev['cost_per_task']}, success {dev['success_rate']}")
     best = min(rows, key=lambda r: (r["cost_per_task"], r["beta"]))
     result = {"domain": model.name, "layout": model.layout, "checkpoint": args.checkpoint,
               "development": list(DEVELOPMENT), "candidates": rows, "chosen_beta": best["beta"]}

@@ -76,7 +76,7 @@ class ValueGuidedPlanner(Planner):
                                      "note": "exact optimal: C_myo is the true myopic cost (the authors' was LAMA)"
                                      if reference == "internal" else "Fast Downward blind A*, optimal within its time limit"}}
         name = checkpoint_run_name(self.name, self.checkpoint)
-        if (beta, budget, depth_cap) != (None, None, None):
+        if (self.beta, self.budget, self.depth_cap) != (d.get("beta"), d.get("budget"), d.get("depth_cap")):
             name += f"-beta{self.beta:g}-budget{self.budget}-depth{self.depth_cap}"
         self.run_name = name if reference == "internal" else f"{name}-{reference}"
 
