@@ -35,7 +35,10 @@ class GreedyValuePolicy(Policy):
 
     @classmethod
     def from_args(cls, args, model=None) -> "GreedyValuePolicy":
-        return cls(args.checkpoint)
+        agent = cls(args.checkpoint)
+        if model is not None:         # a checkpoint of another layout fails before any task is played
+            agent.start(model, None)
+        return agent
 
     def __init__(self, checkpoint):
         if not checkpoint:

@@ -93,7 +93,8 @@ def refusal(e: Exception, what: str, head: bytes = b"") -> str:
                 f"({unpickler.group(1).strip()}); nothing of it was run")
     first = (unpickler.group(1) if unpickler else text).strip()
     first = first.splitlines()[0].split(". ")[0][:100] if first else ""
-    return f"not a readable {what} ({type(e).__name__}{': ' + first if first else ''})"
+    kind = "cut short or not a torch file: " if isinstance(e, (OSError, RuntimeError, EOFError)) else ""
+    return f"not a readable {what} ({kind}{type(e).__name__}{': ' + first if first else ''})"
 
 
 def load_plain(path, what: str = "checkpoint"):

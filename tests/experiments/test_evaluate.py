@@ -1,5 +1,6 @@
 """The evaluation runner's accounting under the persistent-world rules, and the results JSON."""
 import json
+from pathlib import Path
 
 import pytest
 
@@ -223,3 +224,49 @@ def test_a_sequence_cut_short_in_a_saved_file_is_refused(two_room, tmp_path, mon
     with pytest.raises(DomainError, match=r"partial results, sequence 0: 3 rows for its 5 tasks"):
         evaluate(two_room, GivesUp(), [0], out, progress=False)
     assert out.read_text() == before
+
+
+def run_killed_and_resumed(cmd, watch, kills=2, cwd=None):
+    """Run `cmd`, SIGKILL it each time `watch` (a progress file) has newly changed, `kills` times, then
+    let a last run finish. Returns the last run's exit status; each killed run must have died of the kill."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    seen = None
+    for _ in range(kills):
+        p = subprocess.Popen([sys.executable, *cmd], cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        while p.poll() is None:
+            stamp = watch.stat().st_mtime_ns if watch.exists() else None
+            if stamp is not None and stamp != seen:
+                seen = stamp                         # a piece of work was saved; the next has begun
+                os.kill(p.pid, signal.SIGKILL)
+                break
+            time.sleep(0.05)
+        assert p.wait() == -signal.SIGKILL, "the run ended before it could be killed"
+    return subprocess.run([sys.executable, *cmd], cwd=cwd, capture_output=True).returncode
+
+
+def test_a_run_killed_and_rerun_gives_the_uninterrupted_results(tmp_path):
+    """SIGKILL mid-run (twice), rerun: the results are those of one uninterrupted run (timings aside)."""
+    import shutil
+    import subprocess
+    import sys
+
+    domain = tmp_path / "restaurant"
+    shutil.copytree("domains/restaurant", domain)
+    for path in (domain / "sequences" / "two-room").glob("seq-*.json"):     # short sequences: a quick test
+        rec = json.loads(path.read_text())
+        path.write_text(json.dumps({**rec, "tasks": rec["tasks"][:6]}))
+    cmd = lambda out: ["-m", "experiments.evaluate", "--agent", "myopic-oracle", "--planner", "internal",
+                       "--domain", str(domain), "--layout", "two-room", "--sequences", "0-3", "--out", str(out)]
+    whole, resumed = tmp_path / "whole.json", tmp_path / "resumed.json"
+    assert subprocess.run([sys.executable, *cmd(whole)], capture_output=True).returncode == 0
+    assert run_killed_and_resumed(cmd(resumed), Path(f"{resumed}.partial.json")) == 0
+    timing = ("seconds", "wall_seconds")
+    strip = lambda r: {k: ([{k2: v2 for k2, v2 in x.items() if k2 not in timing} for x in v] if k == "per_task" else v)
+                       for k, v in r.items() if k not in timing}
+    assert strip(json.loads(resumed.read_text())) == strip(json.loads(whole.read_text()))
+    assert not Path(f"{resumed}.partial.json").exists()

@@ -124,3 +124,43 @@ def test_throughput_benchmark_reports_rates_and_the_boundary_share():
         assert e["boundary_share_uncached"] < 1 and e["completions_per_minibatch"] >= 0
     myopic = bench_horizon(MINIMAL, "grid", "myopic", steps=60, updates=6, seed=0)
     assert "boundary_share" not in myopic["competent"]        # no boundary target without anticipation
+
+
+def test_a_torn_last_metrics_line_is_dropped_on_resume(tmp_path, capsys):
+    """metrics.jsonl is appended to: a run killed mid-write leaves half a line, which resuming drops."""
+    from types import SimpleNamespace
+
+    m = tmp_path / "metrics.jsonl"
+    m.write_text('{"step": 500}\n{"eval": {"step": 500}}\n{"step": 1000}\n{"step": 1500, "tas')
+    Trainer._trim_metrics(SimpleNamespace(metrics=m, step=1000))
+    assert m.read_text() == '{"step": 500}\n{"eval": {"step": 500}}\n{"step": 1000}\n'
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "dropped a half-written last line" in err
+    m.write_text('{"step": 500}\n{"step": 6\n{"step": 1000}\n')        # not the last line: not a torn write
+    with pytest.raises(DomainError, match="metrics.jsonl: line 2 is not a metrics row"):
+        Trainer._trim_metrics(SimpleNamespace(metrics=m, step=1000))
+
+
+def test_training_killed_and_rerun_gives_the_uninterrupted_run(tmp_path):
+    """SIGKILL the trainer (twice, after checkpoints), rerun: the same weights, best network and metrics."""
+    import subprocess
+    import sys
+
+    import torch
+
+    from tests.experiments.test_evaluate import run_killed_and_resumed
+
+    cmd = lambda out: ["-m", "learning.dqn", "--domain", MINIMAL, "--horizon", "anticipatory", "--steps", "600",
+                       "--checkpoint-every", "200", "--target-every", "100", "--eval-every", "200",
+                       "--eval-tasks", "10", "--demo-tasks", "20", "--learning-starts", "100", "--log-every", "100",
+                       "--hidden", "64", "--no-progress", "--out", str(out)]
+    whole, resumed = tmp_path / "whole", tmp_path / "resumed"
+    assert subprocess.run([sys.executable, *cmd(whole)], capture_output=True).returncode == 0
+    assert run_killed_and_resumed(cmd(resumed), resumed / "last.pt") == 0
+    rows = lambda d: [{k: v for k, v in json.loads(line).items() if not k.endswith("_per_s")}
+                      for line in (d / "metrics.jsonl").read_text().splitlines()]
+    assert rows(resumed) == rows(whole)
+    for name in ("last.pt", "best.pt"):
+        a, b = (torch.load(d / name, weights_only=True) for d in (whole, resumed))
+        assert a["step"] == b["step"] == 600 or name == "best.pt"
+        assert all(torch.equal(a["net"][k], b["net"][k]) for k in a["net"])
