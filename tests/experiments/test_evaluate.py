@@ -270,3 +270,19 @@ def test_a_run_killed_and_rerun_gives_the_uninterrupted_results(tmp_path):
                        for k, v in r.items() if k not in timing}
     assert strip(json.loads(resumed.read_text())) == strip(json.loads(whole.read_text()))
     assert not Path(f"{resumed}.partial.json").exists()
+
+
+def test_a_fast_downward_crash_is_a_warning_line_not_only_json(two_room, tmp_path, monkeypatch, capsys):
+    """A SIGSEGV of the planner child: the row keeps Fast Downward's message and the run warns in one line."""
+    from oracles import myopic
+    from planning.external.fast_downward import PlanResult, Status
+
+    monkeypatch.chdir(tmp_path)
+    short_sequences(monkeypatch, 3)
+    monkeypatch.setattr(myopic.fd, "solve", lambda model, state, task, time_limit: PlanResult(
+        Status.CRASHED, message="INTERNAL_ERROR planner exited with -11 (SIGSEGV)"))
+    r = evaluate(two_room, myopic.MyopicOracle(), [0], tmp_path / "r.json", progress=False)
+    crashed = [x for x in r["per_task"] if x.get("status") == "crashed"]
+    assert crashed and crashed[0]["message"].endswith("(SIGSEGV)") and crashed[0]["cost"] > 0
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "crashed (INTERNAL_ERROR planner exited with -11 (SIGSEGV))" in err
