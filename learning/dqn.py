@@ -22,7 +22,7 @@ command) and DIR/best.pt (the network with the best greedy evaluation on 100 tas
 from __future__ import annotations
 
 import argparse
-
+import ctypes
 import json
 import math
 import random
@@ -108,6 +108,23 @@ class Config:
     """steps between resumable checkpoints"""
     out: str | None = None
     """run folder (default runs/dqn/<domain>-<layout>-<horizon>-seed<seed>)"""
+
+
+def keep_freed_memory() -> None:
+    """Let glibc's malloc keep freed memory instead of handing it back to the kernel.
+
+    An update allocates and frees tensors of a few megabytes; by default glibc maps and
+    unmaps them (or trims its heap) each time, and the page faults of touching fresh
+    pages cost as much as the arithmetic (measured: a 721-row forward 6.9 -> 4.5 ms).
+    Values are unchanged; the process keeps its peak memory. No-op off glibc.
+    """
+    try:
+        libc = ctypes.CDLL("libc.so.6")
+        libc.mallopt(-3, 32 << 20)        # M_MMAP_THRESHOLD: heap, not mmap, below 32 MB
+        libc.mallopt(-1, 1 << 30)         # M_TRIM_THRESHOLD: trim only above 1 GB free
+        libc.mallopt(-2, 64 << 20)        # M_TOP_PAD: grow the heap 64 MB at a time
+    except (OSError, AttributeError):
+        pass
 
 
 def domain_defaults(model, horizon: str) -> dict:
@@ -207,6 +224,7 @@ class Trainer:
         if cfg.horizon not in HORIZONS:
             raise DomainError("--horizon", f"'{cfg.horizon}' is neither myopic nor anticipatory")
         torch.set_num_threads(1)            # 2 cores shared by several engineers
+        keep_freed_memory()
         self.cfg, self.progress = cfg, progress
         self.model = model = compile_domain(cfg.domain, cfg.layout)
         cfg.layout = model.layout
@@ -231,7 +249,8 @@ class Trainer:
         self.target = build_network(self.enc, cfg.hidden)
         self.target.load_state_dict(self.net.state_dict())
         self.boundary = BoundaryCache()        # target values of replayed completion states, per sync
-        self.opt = torch.optim.Adam(self.net.parameters(), lr=cfg.lr, foreach=True)
+        self.params = list(self.net.parameters())
+        self.opt = torch.optim.Adam(self.params, lr=cfg.lr, fused=True)
         self.memory = Replay(cfg.buffer_size, self.enc.n_words)
         self.demos, self.demo_returns = demonstrations(model, self.enc, cfg, self.r_goal, self.scale,
                                                        self.terminal_reset, progress)
@@ -278,19 +297,20 @@ class Trainer:
             self._finish_task(True)
 
     # ---- one update (lines 8-20) ---------------------------------------------------------------
-    def update(self) -> None:
-        """One gradient step on a minibatch with the protected demo share."""
+    def update(self, batch: dict | None = None) -> None:
+        """One gradient step on a minibatch with the protected demo share (or on the given one)."""
         cfg = self.cfg
-        batch = mixed_batch(self.memory, self.demos, cfg.batch_size, cfg.demo_fraction, self.rng)
+        if batch is None:
+            batch = mixed_batch(self.memory, self.demos, cfg.batch_size, cfg.demo_fraction, self.rng)
         y = td_targets(self.net, self.target, self.enc, batch, cfg.gamma, cfg.horizon, self.boundary)
         obs = torch.from_numpy(self.enc.observe(batch["states"], batch["tasks"]))
         valid = self.enc.valid_for(batch["states"], batch["tasks"])
         actions = torch.from_numpy(batch["actions"])
-        q = self.net(obs, torch.from_numpy(valid)).gather(1, actions[:, None])[:, 0]
+        q = self.net.q_taken(obs, torch.from_numpy(valid), actions)
         loss = F.smooth_l1_loss(q, y)
         self.opt.zero_grad(set_to_none=True)
         loss.backward()
-        torch.nn.utils.clip_grad_norm_(self.net.parameters(), cfg.grad_clip)
+        torch.nn.utils.clip_grad_norm_(self.params, cfg.grad_clip)
         self.opt.step()
         self.stats["q"].append(float(q.detach().mean()))
         self.stats["y"].append(float(y.mean()))

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import torch
 from torch import nn
+from torch.nn import functional as F
 
 from planning.atomic import write_bytes
 from planning.errors import DomainError
@@ -63,9 +64,11 @@ class FactoredQNet(nn.Module):
 
     Head d is a one-hidden-layer MLP of [state embedding, embeddings of components
     1..d-1]; its first layer is split into a state part (computed once per row) and
-    a prefix part (computed once per distinct prefix), and it is evaluated only for
-    the prefixes some valid action of the row has, which is what keeps the batched
-    boundary expectation cheap.
+    a prefix part (computed once per distinct prefix). Every row is evaluated densely
+    at the *live* prefixes only (`_plan_heads`), per distinct label, with no per-row
+    index bookkeeping: the same Q and gradients as evaluating each valid tuple's
+    prefixes, at close to the cost of a plain MLP. `forward_pairs` splits the
+    encoder's first layer too, for the boundary rows that repeat a state per task.
     """
 
     def __init__(self, obs_dim: int, labels: np.ndarray, vocab_sizes: list, hidden: int = 256,
@@ -88,36 +91,130 @@ class FactoredQNet(nn.Module):
             for t in tables:
                 nn.init.normal_(t.weight, std=embed ** -0.5)
         self.out = nn.ModuleList(nn.Linear(head_hidden, v) for v in vocab_sizes)
+        self._plan_heads()
 
     def prefix_term(self, d: int) -> torch.Tensor:
         """(P_d, head_hidden): head d's first-layer input from each distinct prefix of earlier components."""
         p = self.table.prefixes[d]
         return sum(t(p[:, k]) for k, t in enumerate(self.prefix_tables[d - 1]))
 
-    def forward(self, obs: torch.Tensor, valid: torch.Tensor) -> torch.Tensor:
+    def _plan_heads(self) -> None:
+        """Static tables of the dense evaluation (`q_labels`).
+
+        Ground actions that share a factored label share their Q, so Q is computed per
+        distinct label and copied to the actions. A head is evaluated only at its *live*
+        prefixes, those followed by two or more values in the label table: at any other prefix
+        the one value's centred advantage is A - A = 0 exactly, in value and gradient (the
+        restaurant's last head has no live prefix; 10 of its 88 prefixes are live). Each live
+        (head, prefix) is an *instance*; all instances go through one matmul against the live
+        heads' stacked output layers, each keeps its own head's columns (padded to the widest
+        head), and one 0/1 matrix sums their centred advantages onto the labels.
+        """
+        t, H = self.table, self.head_hidden
+        labels = np.stack([v.numpy() for v in t.val], 1)
+        uniq, first, lab_of_act = np.unique(labels, axis=0, return_index=True, return_inverse=True)
+        A, L = len(labels), len(uniq)
+        self.lab_of_act = torch.from_numpy(lab_of_act.reshape(-1).astype(np.int64))
+        inst = []                                       # (head, prefix id, values that follow it)
+        for d, V in enumerate(t.sizes):
+            pid, val = t.pid[d].numpy()[first], uniq[:, d]
+            for p in range(t.uses[d].shape[1]):
+                vals = np.unique(val[pid == p])
+                if len(vals) >= 2:
+                    inst.append((d, p, vals))
+        heads = sorted({d for d, _, _ in inst})
+        I, Vm = len(inst), max((t.sizes[d] for d in heads), default=1)
+        self.n_inst, self.v_max = I, Vm
+        self.inst_head = torch.tensor([d for d, _, _ in inst], dtype=torch.int64)
+        self.state_width = (max(heads, default=-1) + 2) * H      # value stream and heads up to the last live
+        # output rows: the live heads' weights stacked, then a zero row for the padding
+        off = dict(zip(heads, np.cumsum([0] + [t.sizes[d] for d in heads])[:-1].tolist()))
+        self.out_heads, pad = heads, sum(t.sizes[d] for d in heads)
+        out_col = np.full((I, Vm), pad, dtype=np.int64)
+        for i, (d, _, _) in enumerate(inst):
+            out_col[i, :t.sizes[d]] = off[d] + np.arange(t.sizes[d])
+        self.out_col = torch.from_numpy(out_col[:, None, :])                            # (I, 1, V)
+        # prefix part: one bag of (table, component) rows per instance, in the stacked prefix tables
+        tables = [(d, k) for d in heads if d for k in range(d)]
+        toff = dict(zip(tables, np.cumsum([0] + [t.sizes[k] for _, k in tables])[:-1].tolist()))
+        self.prefix_mods = tuple(self.prefix_tables[d - 1][k] for d, k in tables)
+        self.out_mods = tuple(self.out[d] for d in heads)
+        bag, bag_off = [], []
+        for d, p, _ in inst:
+            bag_off.append(len(bag))
+            bag += [toff[(d, k)] + int(c) for k, c in enumerate(t.prefixes[d][p].tolist())]
+        self.bag, self.bag_off = torch.tensor(bag, dtype=torch.int64), torch.tensor(bag_off, dtype=torch.int64)
+        # (instance, value) slots: which labels use them
+        slot_lab = np.zeros((L, I * Vm), dtype=np.float32)
+        where = {(d, p): i for i, (d, p, _) in enumerate(inst)}
+        for d in heads:
+            pid = t.pid[d].numpy()[first]
+            for l in range(L):
+                i = where.get((d, int(pid[l])))
+                if i is not None:
+                    slot_lab[l, i * Vm + uniq[l, d]] = 1.0
+        self.slot_act = torch.from_numpy(slot_lab[lab_of_act.reshape(-1)].T.copy())     # (slots, A)
+        self.lab_of_slot = torch.from_numpy(slot_lab.T.copy())                           # (slots, L)
+
+    def head_masks(self, valid: torch.Tensor) -> tuple:
+        """(I, N, V) 0/1 mask of the valid values after each instance's prefix, and its (I, N, 1)
+        count (at least 1): what the advantages are centred over. It depends on validity only, so
+        one call serves the online and the target network (`select` takes rows of it)."""
+        m = (self.slot_act @ valid.to(torch.float32).T).clamp_(max=1.0)          # (slots, N)
+        m = m.view(self.n_inst, self.v_max, -1).transpose(1, 2)
+        return m, m.sum(-1, keepdim=True).clamp_(min=1.0)
+
+    @staticmethod
+    def select_masks(masks: tuple, rows: torch.Tensor) -> tuple:
+        """The head masks of some rows."""
+        return tuple(x.index_select(1, rows) for x in masks)
+
+    def q_labels(self, pre: torch.Tensor, masks: tuple) -> torch.Tensor:
+        """(N, labels) Q of every factored label from the first layer's pre-activations (a label
+        invalid in a row gets a finite, meaningless value)."""
+        H, e, w = self.head_hidden, self.encoder, self.state_width
+        parts = F.linear(e[3](e[2](e[1](pre))), self.from_state.weight[:w], self.from_state.bias[:w])
+        v = self.value(torch.relu(parts[:, :H]))                                       # (N, 1)
+        if not self.n_inst:
+            return v.expand(-1, self.lab_of_slot.shape[1])
+        N = parts.shape[0]
+        z = parts[:, H:].view(N, -1, H).transpose(0, 1).index_select(0, self.inst_head)   # state parts (I, N, H)
+        if self.prefix_mods:
+            tabs = torch.cat([t.weight for t in self.prefix_mods])
+            z.add_(F.embedding_bag(self.bag, tabs, self.bag_off, mode="sum")[:, None])      # + the prefix parts
+        w_out = torch.cat([o.weight for o in self.out_mods] + [z.new_zeros(1, H)])
+        b_out = torch.cat([o.bias for o in self.out_mods] + [z.new_zeros(1)])
+        adv = F.linear(z.relu_(), w_out, b_out).gather(2, self.out_col.expand(-1, N, -1))       # (I, N, V)
+        m, count = masks
+        c = adv - (adv * m).sum(-1, keepdim=True) / count                              # centred over the valid values
+        return torch.addmm(v, c.transpose(0, 1).reshape(N, -1), self.lab_of_slot)
+
+    def forward(self, obs: torch.Tensor, valid: torch.Tensor, masks: tuple | None = None) -> torch.Tensor:
         """(N, actions) Q of every valid ground action; -inf where invalid."""
-        N, H = obs.shape[0], self.head_hidden
-        parts = self.from_state(self.encoder(obs))
-        v = self.value(torch.relu(parts[:, :H]))[:, 0]
-        rows, acts = valid.nonzero(as_tuple=True)                 # the valid tuples, all rows at once
-        q = v[rows]
-        for d, size in enumerate(self.table.sizes):
-            P = self.table.uses[d].shape[1]
-            pid, val = self.table.pid[d][acts], self.table.val[d][acts]
-            flat = rows * P + pid
-            used = torch.zeros(N * P, dtype=torch.bool)
-            used[flat] = True                                         # (row, prefix) pairs in use
-            keys = used.nonzero()[:, 0]
-            inv = (torch.cumsum(used, 0) - 1)[flat]                   # each tuple's (row, prefix) slot
-            z = parts[keys // P, (d + 1) * H:(d + 2) * H]                       # the state part
-            if d:
-                z = z + self.prefix_term(d)[keys % P]                           # + the prefix part
-            adv = self.out[d](torch.relu(z))                                 # (K, V_d)
-            mask = torch.zeros(adv.shape, dtype=adv.dtype).index_put((inv, val), torch.ones(()))
-            mean = (adv * mask).sum(-1) / mask.sum(-1)                       # over the valid values only
-            q = q + adv[inv, val] - mean[inv]
-        out = torch.full((N, valid.shape[1]), float("-inf"), dtype=q.dtype)
-        return out.index_put((rows, acts), q)
+        masks = self.head_masks(valid) if masks is None else masks
+        q = self.q_labels(self.encoder[0](obs), masks).index_select(1, self.lab_of_act)
+        return q.masked_fill(~valid, float("-inf"))
+
+    def q_taken(self, obs: torch.Tensor, valid: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        """(N,) Q of each row's taken action, which is valid there (`forward` gathered, without the
+        copy to every action)."""
+        q = self.q_labels(self.encoder[0](obs), self.head_masks(valid))
+        return q.gather(1, self.lab_of_act[actions][:, None])[:, 0]
+
+    def first_layer_pairs(self, bits: torch.Tensor, task_feat: torch.Tensor, state_of: torch.Tensor,
+                          task_of: torch.Tensor) -> torch.Tensor:
+        """The first layer's pre-activations of the observations [bits[state_of], task_feat[task_of]],
+        split: its state part once per state, its task part once per task (the 42-48 task rows of a
+        boundary state share one state projection)."""
+        w, b, k = self.encoder[0].weight, self.encoder[0].bias, bits.shape[1]
+        return F.linear(bits, w[:, :k]).index_select(0, state_of) + F.linear(task_feat, w[:, k:], b).index_select(0, task_of)
+
+    def forward_pairs(self, bits: torch.Tensor, task_feat: torch.Tensor, state_of: torch.Tensor,
+                      task_of: torch.Tensor, valid: torch.Tensor, masks: tuple | None = None) -> torch.Tensor:
+        """`forward` of the observations [bits[state_of], task_feat[task_of]] (`first_layer_pairs`)."""
+        masks = self.head_masks(valid) if masks is None else masks
+        q = self.q_labels(self.first_layer_pairs(bits, task_feat, state_of, task_of), masks)
+        return q.index_select(1, self.lab_of_act).masked_fill(~valid, float("-inf"))
 
 
 def masked_max(q: torch.Tensor, valid: torch.Tensor):
@@ -243,7 +340,8 @@ def preparedness(online: nn.Module, target: nn.Module, enc: Encoding, packed: np
 
 
 class BoundaryCache:
-    """Target-network values of the boundary pairs, per completion state, valid until the next target sync.
+    """Validity and target-network values of the boundary pairs, per completion state, valid until the
+    next target sync.
 
     The anticipatory target needs Q_target(s', τ', ·) for every task of the support
     at every replayed completion state s'. The target network only changes at a
@@ -253,7 +351,7 @@ class BoundaryCache:
     whenever the target network changes.
     """
 
-    def __init__(self, max_states: int = 4096):   # ~50 KB a state (two-room)
+    def __init__(self, max_states: int = 4096):   # ~14 KB a state (two-room)
         self.max_states, self.entries = max_states, {}
 
     def __len__(self) -> int:
@@ -264,19 +362,40 @@ class BoundaryCache:
         self.entries.clear()
 
 
-def _boundary_inputs(enc: Encoding, states: np.ndarray, cache: BoundaryCache | None):
-    """Observations, validity and cached target values (None where missing) of each state's support pairs."""
-    keys = [s.tobytes() for s in states]
-    hit = [cache.entries.get(k) if cache is not None else None for k in keys]
-    miss = [j for j, e in enumerate(hit) if e is None]
-    k = len(enc.support)
-    fresh = {}
-    if miss:
-        obs, valid = _pairs(enc, states[miss])
-        for i, j in enumerate(miss):
-            fresh[j] = (obs[i * k:(i + 1) * k], valid[i * k:(i + 1) * k])
-    parts = [fresh[j] if hit[j] is None else hit[j][:2] for j in range(len(states))]
-    return keys, parts, hit, miss
+def _support_valid(enc: Encoding, packed: np.ndarray) -> np.ndarray:
+    """(n * support, actions) validity of every (state, task of the support) pair, state-major."""
+    app = enc.applicable(packed)
+    sat = enc.satisfied_all(packed)[:, enc.support]
+    return enc.valid(np.repeat(app, len(enc.support), axis=0), sat.reshape(-1))
+
+
+class _Pairs:
+    """(state, task) rows given as packed-state bits and indices: what td_targets feeds the networks."""
+
+    def __init__(self, enc: Encoding, bits: np.ndarray, state_of: np.ndarray, task_of: np.ndarray,
+                 valid: np.ndarray):
+        self.enc, self.bits, self.state_of, self.task_of, self.valid = enc, bits, state_of, task_of, valid
+        self.tensors = [torch.from_numpy(x) for x in (bits, enc.task_feat)]
+
+    def _inputs(self, rows):
+        s, t = torch.from_numpy(self.state_of[rows]), torch.from_numpy(self.task_of[rows])
+        return self.tensors + [s, t], torch.from_numpy(self.valid[rows])
+
+    def best(self, net: nn.Module, rows: np.ndarray, masks) -> torch.Tensor:
+        """argmax over the valid actions of net's Q at the given rows."""
+        (bits, feat, s, t), valid = self._inputs(rows)
+        if hasattr(net, "forward_pairs"):
+            return net.forward_pairs(bits, feat, s, t, valid, masks).max(dim=1)[1]
+        obs = torch.cat([bits[s], feat[t]], 1)
+        return masked_max(net(obs, valid), valid)[1]
+
+    def values(self, net: nn.Module, rows: np.ndarray, masks):
+        """net's Q at the given rows, per label for a FactoredQNet (and the action -> column map)."""
+        (bits, feat, s, t), valid = self._inputs(rows)
+        if hasattr(net, "q_labels"):
+            return net.q_labels(net.first_layer_pairs(bits, feat, s, t), masks), net.lab_of_act
+        obs = torch.cat([bits[s], feat[t]], 1)
+        return net(obs, valid), torch.arange(valid.shape[1])
 
 
 def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict, gamma: float,
@@ -285,9 +404,12 @@ def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict,
 
     batch: next_states (N, W) uint64, tasks (N,), rewards (N,), kinds (N,) (CONTINUE /
     COMPLETE / TERMINAL). The online net picks, the target net values. The
-    same-task pairs and the boundary pairs (every completion's s' with every task
-    of the support) go through each network in one batched call; with a cache,
-    the target net sees only the boundary states it has not valued since the last sync.
+    same-task pairs and the boundary pairs (every distinct completion state s' with
+    every task of the support) go through each network in one batched call, with the
+    first layer's state part once per state; a pair with one valid action (AUTO of a
+    task that holds) has that action as its argmax without the online net; with a
+    cache, the target net sees only the boundary states it has not valued since the
+    last sync.
     """
     if horizon not in ("myopic", "anticipatory"):
         raise DomainError("--horizon", f"'{horizon}' is neither myopic nor anticipatory")
@@ -298,34 +420,51 @@ def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict,
     comp = np.flatnonzero(kinds == COMPLETE) if horizon == "anticipatory" else cont[:0]
     if not len(cont) and not len(comp):
         return y
-    tasks = np.asarray(batch["tasks"])[cont]
-    obs, valid = [enc.observe(nxt[cont], tasks)], [enc.valid_for(nxt[cont], tasks)]
-    n, k = len(cont), len(enc.support)
-    keys, hit, miss = [], [], []
-    if len(comp):
-        keys, parts, hit, miss = _boundary_inputs(enc, nxt[comp], cache)
-        obs += [o for o, _ in parts]
-        valid += [v for _, v in parts]
-    obs_all, valid_all = np.concatenate(obs), np.concatenate(valid)
-    rows_t = np.concatenate([np.arange(n)] + [n + j * k + np.arange(k) for j in miss]).astype(np.int64)
-    with torch.inference_mode():
-        _, best = masked_max(online(torch.from_numpy(obs_all), torch.from_numpy(valid_all)), torch.from_numpy(valid_all))
-        fresh = target(torch.from_numpy(obs_all[rows_t]), torch.from_numpy(valid_all[rows_t])).numpy()
-    qt = np.empty((len(obs_all), enc.n_actions), dtype=np.float32)
-    qt[rows_t] = fresh
+    tasks = np.asarray(batch["tasks"])[cont].astype(np.int64)
+    n, k, A = len(cont), len(enc.support), enc.n_actions
+    # the distinct completion states, their cached entries and the ones to value afresh
+    uniq, inv = np.unique(nxt[comp], axis=0, return_inverse=True) if len(comp) else (nxt[:0], None)
+    U = len(uniq)
+    keys = [s.tobytes() for s in uniq]
+    hit = [cache.entries.get(key) if cache is not None else None for key in keys]
+    miss = np.array([j for j, e in enumerate(hit) if e is None], dtype=np.int64)
+    valid_b = np.empty((U, k, A), dtype=bool)
+    if len(miss):
+        valid_b[miss] = _support_valid(enc, uniq[miss]).reshape(len(miss), k, A)
     for j, e in enumerate(hit):
         if e is not None:
-            qt[n + j * k:n + (j + 1) * k] = e[2]
-    if cache is not None:
-        for j in miss:
-            if len(cache.entries) < cache.max_states:
+            valid_b[j] = e[0]
+    # rows: the continuing (s', τ), then each completion state with every task of the support
+    valid = np.concatenate([enc.valid_for(nxt[cont], tasks), valid_b.reshape(U * k, A)])
+    pairs = _Pairs(enc, enc.bm.to_bits(np.concatenate([nxt[cont], uniq])).astype(np.float32),
+                   np.concatenate([np.arange(n), n + np.repeat(np.arange(U), k)]).astype(np.int64),
+                   np.concatenate([tasks, np.tile(enc.support, U)]).astype(np.int64), valid)
+    several = np.flatnonzero(valid.sum(1) > 1)                          # rows whose argmax needs the online net
+    rows_t = np.concatenate([np.arange(n), (n + miss[:, None] * k + np.arange(k)).reshape(-1)]).astype(np.int64)
+    factored = hasattr(online, "head_masks") and hasattr(target, "q_labels")
+    with torch.inference_mode():
+        masks = online.head_masks(torch.from_numpy(valid)) if factored else None
+        pick = lambda rows: None if masks is None else FactoredQNet.select_masks(masks, torch.from_numpy(rows))
+        best = torch.from_numpy(valid.argmax(1))                         # the one valid action, where one
+        if len(several):
+            best[torch.from_numpy(several)] = pairs.best(online, several, pick(several))
+        qt, col = pairs.values(target, rows_t, pick(rows_t))
+        picked = torch.empty(len(valid), dtype=torch.float32)
+        rt = torch.from_numpy(rows_t)
+        picked[rt] = qt.gather(1, col[best[rt]][:, None])[:, 0]
+        cols = col[best].numpy()
+        for j, e in enumerate(hit):
+            if e is not None:
                 sl = slice(n + j * k, n + (j + 1) * k)
-                cache.entries[keys[j]] = (obs_all[sl].copy(), valid_all[sl].copy(), qt[sl].copy())
-    picked = torch.from_numpy(qt[np.arange(len(qt)), best.numpy()])
+                picked[sl] = torch.from_numpy(e[1][np.arange(k), cols[sl]])
+        if cache is not None:
+            qt = qt.numpy()
+            for i, j in enumerate(miss[:max(0, cache.max_states - len(cache.entries))]):
+                cache.entries[keys[j]] = (valid_b[j].copy(), qt[n + i * k:n + (i + 1) * k].copy())
     y[torch.from_numpy(cont)] += gamma * picked[:n]
     if len(comp):
         p = torch.from_numpy(enc.task_prob[enc.support]).float()
-        y[torch.from_numpy(comp)] += gamma * (picked[n:].reshape(len(comp), k) @ p)
+        y[torch.from_numpy(comp)] += gamma * (picked[n:].reshape(U, k) @ p)[torch.from_numpy(inv.reshape(-1))]
     return y
 
 

@@ -164,3 +164,26 @@ def test_training_killed_and_rerun_gives_the_uninterrupted_run(tmp_path):
         a, b = (torch.load(d / name, weights_only=True) for d in (whole, resumed))
         assert a["step"] == b["step"] == 600 or name == "best.pt"
         assert all(torch.equal(a["net"][k], b["net"][k]) for k in a["net"])
+
+
+def test_checkpoint_round_trip_continues_identically(minimal, tmp_path):
+    """last.pt holds all of the trainer (networks, fused Adam's state, memories, world, generators):
+    a trainer resumed from it in the same process continues exactly as the one that wrote it."""
+    import torch
+
+    cfg = lambda out, steps: small_config(minimal, out, "anticipatory", steps=steps, checkpoint_every=200,
+                                          log_every=100, demo_tasks=20, hidden=32, eval_tasks=10)
+    a = Trainer(cfg(tmp_path / "a", 200), progress=False)
+    a.train()
+    b = Trainer(cfg(tmp_path / "b", 400), progress=False)
+    b.resume(tmp_path / "a" / "last.pt")
+    a.cfg.steps = 400
+    a.train()
+    b.train()
+    for x, y in ((a.net, b.net), (a.target, b.target)):
+        assert all(torch.equal(p, q) for p, q in zip(x.state_dict().values(), y.state_dict().values()))
+    rows = lambda d: [{k: v for k, v in json.loads(line).items() if not k.endswith("_per_s")}
+                      for line in (d / "metrics.jsonl").read_text().splitlines()]
+    after = [r for r in rows(tmp_path / "a") if r.get("step", r.get("eval", {}).get("step")) > 200]
+    assert after and json.dumps(after) == json.dumps(rows(tmp_path / "b"))
+    assert a.step == b.step == 400 and a.world.state == b.world.state

@@ -232,3 +232,192 @@ def test_boundary_cache_is_exact_and_spares_the_target_net(two_room, enc):
     cache.clear()
     moved = td_targets(online, target, enc, batch, 0.97, "anticipatory", cache).numpy()
     np.testing.assert_allclose(moved[1:], plain[1:] + 0.97 * 5.0, rtol=1e-5)
+
+
+# ---- the faster training path against the previous implementation ----------------------------
+def reference_forward(net, obs, valid):
+    """The previous FactoredQNet.forward, kept as the reference: each head evaluated at the (row,
+    prefix) pairs in use, found by index bookkeeping, centred over the valid values."""
+    N, H = obs.shape[0], net.head_hidden
+    parts = net.from_state(net.encoder(obs))
+    v = net.value(torch.relu(parts[:, :H]))[:, 0]
+    rows, acts = valid.nonzero(as_tuple=True)
+    q = v[rows]
+    for d, size in enumerate(net.table.sizes):
+        P = net.table.uses[d].shape[1]
+        pid, val = net.table.pid[d][acts], net.table.val[d][acts]
+        flat = rows * P + pid
+        used = torch.zeros(N * P, dtype=torch.bool)
+        used[flat] = True
+        keys = used.nonzero()[:, 0]
+        inv = (torch.cumsum(used, 0) - 1)[flat]
+        z = parts[keys // P, (d + 1) * H:(d + 2) * H]
+        if d:
+            z = z + net.prefix_term(d)[keys % P]
+        adv = net.out[d](torch.relu(z))
+        mask = torch.zeros(adv.shape, dtype=adv.dtype).index_put((inv, val), torch.ones(()))
+        mean = (adv * mask).sum(-1) / mask.sum(-1)
+        q = q + adv[inv, val] - mean[inv]
+    out = torch.full((N, valid.shape[1]), float("-inf"), dtype=q.dtype)
+    return out.index_put((rows, acts), q)
+
+
+class ReferenceNet(torch.nn.Module):
+    """A FactoredQNet's weights behind the reference forward (and none of the new entry points)."""
+
+    def __init__(self, net):
+        super().__init__()
+        self.net = net
+
+    def forward(self, obs, valid):
+        return reference_forward(self.net, obs, valid)
+
+
+def reference_td_targets(online, target, enc, batch, gamma, horizon):
+    """The previous td_targets without its cache: every continuing pair and every completion's
+    pairs with the whole support through both networks, observations built in full."""
+    from learning.qnet import _pairs, masked_max
+    y = torch.as_tensor(batch["rewards"], dtype=torch.float32).clone()
+    kinds, nxt = np.asarray(batch["kinds"]), batch["next_states"]
+    cont = np.flatnonzero(kinds == CONTINUE)
+    comp = np.flatnonzero(kinds == COMPLETE) if horizon == "anticipatory" else cont[:0]
+    if not len(cont) and not len(comp):
+        return y
+    tasks = np.asarray(batch["tasks"])[cont]
+    obs, valid = [enc.observe(nxt[cont], tasks)], [enc.valid_for(nxt[cont], tasks)]
+    if len(comp):
+        o, v = _pairs(enc, nxt[comp])
+        obs.append(o)
+        valid.append(v)
+    obs, valid = torch.from_numpy(np.concatenate(obs)), torch.from_numpy(np.concatenate(valid))
+    with torch.no_grad():
+        _, best = masked_max(online(obs, valid), valid)
+        picked = target(obs, valid).gather(1, best[:, None])[:, 0]
+    n, k = len(cont), len(enc.support)
+    y[torch.from_numpy(cont)] += gamma * picked[:n]
+    if len(comp):
+        p = torch.from_numpy(enc.task_prob[enc.support]).float()
+        y[torch.from_numpy(comp)] += gamma * (picked[n:].reshape(len(comp), k) @ p)
+    return y
+
+
+def trained_like(enc, seed):
+    """A network whose heads matter: biases and embeddings spread as after training."""
+    torch.manual_seed(seed)
+    net = build_network(enc)
+    with torch.no_grad():
+        for name, p in net.named_parameters():
+            if p.dim() == 1 or "prefix" in name:
+                p.normal_(0.0, 0.5)
+    return net
+
+
+def fixed_minibatch(model, enc, n, seed):
+    """n transitions of random walks: every kind, repeated completion states, tasks that hold."""
+    rng = np.random.default_rng(seed)
+    states = enc.pack(random_walk_states(model, n + 1, seed=seed))
+    nxt = states[1:].copy()
+    nxt[n // 2:n // 2 + 6] = nxt[n // 2]                            # one completion state six times
+    kinds = rng.choice([CONTINUE, COMPLETE, TERMINAL], size=n, p=[0.7, 0.2, 0.1]).astype(np.int8)
+    kinds[n // 2:n // 2 + 6] = COMPLETE
+    tasks = rng.integers(len(model.tasks), size=n)
+    holds = enc.satisfied_all(states[:-1])                          # some rows' task already holds: AUTO
+    for i in np.flatnonzero(holds.any(1))[:8]:
+        tasks[i] = int(np.flatnonzero(holds[i])[0])
+    valid = enc.valid_for(states[:-1], tasks)
+    actions = np.array([rng.choice(np.flatnonzero(v)) for v in valid])
+    return {"states": states[:-1], "next_states": nxt, "tasks": tasks, "actions": actions,
+            "rewards": rng.normal(0.0, 3.0, size=n).astype(np.float32), "kinds": kinds}
+
+
+def test_dense_heads_give_the_reference_q_and_gradients(restaurant):
+    """The live-prefix, label-level forward equals the previous one: Q, -inf pattern and every gradient."""
+    enc = Encoding(restaurant)
+    net = trained_like(enc, 0)
+    b = fixed_minibatch(restaurant, enc, 160, seed=1)
+    obs, valid = torch.from_numpy(enc.observe(b["states"], b["tasks"])), torch.from_numpy(enc.valid_for(b["states"], b["tasks"]))
+    acts = torch.from_numpy(b["actions"])
+    grads = []
+    for q in (lambda: reference_forward(net, obs, valid), lambda: net(obs, valid),
+              lambda: net.q_taken(obs, valid, acts)[:, None]):
+        net.zero_grad(set_to_none=True)
+        out = q()
+        taken = out.gather(1, acts[:, None]) if out.shape[1] > 1 else out
+        (taken ** 2).mean().backward()
+        grads.append({k: p.grad if p.grad is not None else torch.zeros_like(p) for k, p in net.named_parameters()})
+        if out.shape[1] > 1:
+            grads[-1]["q"] = out.detach()
+    ref, new, taken = grads
+    assert torch.equal(torch.isinf(ref["q"]), torch.isinf(new["q"])) and torch.isinf(ref["q"]).sum() > 0
+    fin = torch.isfinite(ref["q"])
+    assert ref["q"][fin].abs().max() > 1.0                                     # the heads are not trivial
+    torch.testing.assert_close(new["q"][fin], ref["q"][fin], rtol=1e-5, atol=1e-5)
+    for g in (new, taken):
+        for k, p in net.named_parameters():
+            torch.testing.assert_close(g[k], ref[k], rtol=1e-4, atol=1e-6, msg=k)
+    assert ref["out.0.weight"].abs().sum() > 0 and ref["prefix_tables.1.1.weight"].abs().sum() > 0
+
+
+def test_split_first_layer_gives_the_same_q(two_room, enc):
+    net = trained_like(enc, 1)
+    states = enc.pack(random_walk_states(two_room, 12, seed=4))
+    tasks = np.tile(enc.support, 12)
+    rows = np.repeat(np.arange(12), len(enc.support))
+    valid = torch.from_numpy(enc.valid_for(states[rows], tasks))
+    with torch.no_grad():
+        plain = net(torch.from_numpy(enc.observe(states[rows], tasks)), valid)
+        split = net.forward_pairs(torch.from_numpy(enc.bm.to_bits(states).astype(np.float32)),
+                                  torch.from_numpy(enc.task_feat), torch.from_numpy(rows), torch.from_numpy(tasks), valid)
+    assert torch.equal(torch.isinf(plain), torch.isinf(split))
+    torch.testing.assert_close(split[valid], plain[valid], rtol=1e-5, atol=1e-5)
+
+
+@pytest.mark.parametrize("horizon", ["myopic", "anticipatory"])
+def test_faster_update_gives_the_reference_targets_and_gradients(two_room, enc, horizon):
+    """On a fixed minibatch: the same Double-DQN targets as the previous code (with and without the
+    boundary cache, from a cold and a warm cache) and the same gradient of the Huber loss."""
+    import torch.nn.functional as F
+    online, target = trained_like(enc, 2), trained_like(enc, 3)
+    b = fixed_minibatch(two_room, enc, 128, seed=5)
+    assert (b["kinds"] == COMPLETE).sum() >= 6 and len(np.unique(b["next_states"][b["kinds"] == COMPLETE], axis=0)) < (b["kinds"] == COMPLETE).sum()
+    ref = reference_td_targets(ReferenceNet(online), ReferenceNet(target), enc, b, 0.97, horizon)
+    cache = BoundaryCache()
+    for y in (td_targets(online, target, enc, b, 0.97, horizon),
+              td_targets(online, target, enc, b, 0.97, horizon, cache),
+              td_targets(online, target, enc, b, 0.97, horizon, cache)):       # the cache's values
+        torch.testing.assert_close(y, ref, rtol=1e-5, atol=1e-4)
+    assert len(cache) == (0 if horizon == "myopic" else len(np.unique(b["next_states"][b["kinds"] == COMPLETE], axis=0)))
+    assert not torch.allclose(ref, torch.as_tensor(b["rewards"]))               # the bootstrap matters
+    obs, valid = torch.from_numpy(enc.observe(b["states"], b["tasks"])), torch.from_numpy(enc.valid_for(b["states"], b["tasks"]))
+    acts = torch.from_numpy(b["actions"])
+    grads = []
+    for q, y in ((lambda: reference_forward(online, obs, valid).gather(1, acts[:, None])[:, 0], ref),
+                 (lambda: online.q_taken(obs, valid, acts), td_targets(online, target, enc, b, 0.97, horizon, cache))):
+        online.zero_grad(set_to_none=True)
+        F.smooth_l1_loss(q(), y).backward()
+        grads.append({k: p.grad if p.grad is not None else torch.zeros_like(p) for k, p in online.named_parameters()})
+    for k in grads[0]:
+        torch.testing.assert_close(grads[1][k], grads[0][k], rtol=1e-4, atol=1e-6, msg=k)
+
+
+from pathlib import Path  # noqa: E402
+
+
+@pytest.mark.parametrize("path", sorted(str(p) for p in Path("checkpoints").glob("*.pt")))
+def test_committed_checkpoints_act_as_before(path):
+    """Every committed checkpoint loads and its greedy actions on 50 states are the reference forward's,
+    through the training forward and through load_value_function."""
+    from planning.domain.compiler import compile_domain
+    layout = "three-room" if "three-room" in path else "two-room"
+    model = compile_domain("domains/restaurant", layout)
+    vf = load_value_function(path, model)
+    states = random_walk_states(model, 50, seed=17)
+    packed = vf.enc.pack(states)
+    tasks = np.random.default_rng(0).integers(len(model.tasks), size=50)
+    obs, valid = torch.from_numpy(vf.enc.observe(packed, tasks)), torch.from_numpy(vf.enc.valid_for(packed, tasks))
+    with torch.no_grad():
+        ref = reference_forward(vf.net, obs, valid)
+        new = vf.net(obs, valid)
+    torch.testing.assert_close(new[valid], ref[valid], rtol=1e-5, atol=1e-4)
+    assert torch.equal(new.argmax(1), ref.argmax(1))
+    assert np.array_equal([int(vf.greedy([s], int(t))[0]) for s, t in zip(states, tasks)], ref.argmax(1).numpy())
