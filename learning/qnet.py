@@ -275,16 +275,220 @@ class NumpyQ:
         return out
 
 
+class BatchedQ:
+    """max_a Q(s, τ, a) of many int states at once: the searches' q_max and V_AP.
+
+    The same numbers as `NumpyQ` followed by a max over the valid actions, up to
+    float32 rounding. A search asks for a dozen states at a time with its own
+    work in between, so a call's cost is mostly its number of numpy operations
+    and the weights it reads; both are cut down:
+    - the features are the atom bits plus a constant 1 (a byte -> 8 floats
+      table), and one matmul with a per-task matrix gives layer 1 (the task
+      part and the biases in the constant's row) together with every
+      precondition variant's and task goal binding's test: a column of +1 on
+      its positive atoms, -1 on its negative ones and 1 - #positive on the
+      constant is 1 where the test holds and at most 0 elsewhere, so the ReLU
+      of layer 1 also yields the validity masks, exactly. The constant rides
+      along as a feature through the layers and carries their biases;
+    - a head's centred advantage at a prefix with fewer than two valid values is
+      A - A = 0, so only the *live* prefixes are evaluated, those followed by two
+      or more values in the label table (10 of the restaurant's 90), each for
+      every row, all heads in one matmul;
+    - which (live prefix, value) slots a row's valid actions use, their masked
+      means and each precondition variant's Q - V are small dense matmuls
+      against fixed 0/1 tables, and the max runs over the applicable variants
+      (an action's variants share its Q). A state whose task already holds has
+      AUTO alone valid: its Q is V.
+    Float32 throughout except the value stream, V being the largest term (up to
+    240 in the two-room, where float32's step is 1.5e-5).
+    """
+
+    def __init__(self, net: FactoredQNet, enc: Encoding, chunk: int = 4096):
+        """`chunk`: the most (state, task) rows valued in one pass (V_AP's pairs go in chunks)."""
+        g = lambda t: t.detach().numpy().astype(np.float64)
+        f = lambda a: np.ascontiguousarray(a, dtype=np.float32)
+        lin = [m for m in net.encoder if isinstance(m, nn.Linear)]
+        n, H, nd = enc.n_atoms, net.head_hidden, len(net.table.sizes)
+        hid = lin[0].weight.shape[0]
+        self.H, self.hid, self.chunk, self.enc = H, hid, chunk, enc
+        self.nbytes = nb = -(-n // 8)
+        self.one = 1 << (8 * nb)                   # the constant feature: bit 0 of one more byte
+        self.byte_bits = f(np.unpackbits(np.arange(256, dtype=np.uint8)[:, None], axis=1, bitorder="little"))
+        # layer 1 and the tests: rows = atom bits (8 per byte) + the constant byte's 8 bits
+        bm = enc.bm
+        pos = np.concatenate([bm.pre_pos, enc.goal_pos]).astype("<u8")
+        neg = np.concatenate([bm.pre_neg, enc.goal_neg]).astype("<u8")
+        J, self.n_var = len(pos), len(bm.pre_pos)
+        bits_of = lambda w: np.unpackbits(w.view(np.uint8).reshape(len(w), -1), axis=1,
+                                          bitorder="little")[:, :nb * 8].astype(np.float64)
+        P, Nn = bits_of(pos), bits_of(neg)                                 # (J, atom rows)
+        w1 = g(lin[0].weight).T                                            # (obs_dim, hidden)
+        c = nb * 8                                                         # the constant's row
+        base = np.zeros((nb * 8 + 8, hid + 1 + J))
+        base[:n, :hid] = w1[:n]
+        base[c, :hid] = g(lin[0].bias)
+        base[c, hid] = 1.0                                                 # the constant, as a feature
+        base[:nb * 8, hid + 1:] = (P - Nn).T
+        base[c, hid + 1:] = 1.0 - P.sum(1)
+        self.l1_base = f(base)
+        self.task_part = enc.task_feat.astype(np.float64) @ w1[n:]        # (tasks, hidden)
+        self.l1_task: dict = {}                                            # task -> its layer-1 matrix
+        self.t0, self.g0 = hid + 1, hid + 1 + self.n_var                  # test columns: variants, goals
+        aug = lambda w, b: np.vstack([w, b[None]])                         # the constant's row: the bias
+        self.w2 = f(np.hstack([aug(g(lin[1].weight).T, g(lin[1].bias)), np.eye(hid + 1)[:, -1:]]))
+        ws, bs = g(net.from_state.weight).T, g(net.from_state.bias)
+        const = np.zeros((hid + 1, 1))
+        const[-1] = 1.0
+        self.ws_v = np.hstack([aug(ws[:, :H], bs[:H]), const])             # the value stream, float64
+        self.value_w = np.append(g(net.value.weight)[0], g(net.value.bias)[0])
+        T = len(enc.task_feat)
+        self.goal_cols = [self.g0 + np.flatnonzero(enc.goal_owner == t) for t in range(T)]
+        self.goal_of = np.zeros((J - self.n_var, T), np.float32)
+        self.goal_of[np.arange(J - self.n_var), enc.goal_owner] = 1.0
+        # the live prefixes ("segments") and their (segment, value) columns
+        tab = net.table
+        labels = np.stack([v.numpy() for v in tab.val], 1)
+        pids = np.stack([p.numpy() for p in tab.pid], 1)
+        segs = []                                       # (head, prefix id, its values in the label table)
+        for d in range(nd):
+            for p in range(tab.uses[d].shape[1]):
+                vals = np.unique(labels[pids[:, d] == p, d])
+                if len(vals) >= 2:
+                    segs.append((d, p, vals))
+        live = sorted({d for d, _, _ in segs})
+        self.n_live = len(live)
+        self.ws_h = f(np.hstack([np.hstack([aug(ws[:, (1 + d) * H:(2 + d) * H], bs[(1 + d) * H:(2 + d) * H]),
+                                            const]) for d in live]))      # each live head's part + 1
+        off = dict(zip(live, np.cumsum([0] + [tab.sizes[d] for d in live])[:-1].tolist()))
+        ccat = sum(tab.sizes[d] for d in live)
+        w_cat = np.zeros((H + 1, ccat))
+        for d in live:
+            w_cat[:, off[d]:off[d] + tab.sizes[d]] = aug(g(net.out[d].weight).T, g(net.out[d].bias))
+        self.w_cat = f(w_cat)
+        with torch.no_grad():
+            pref = {d: g(net.prefix_term(d)) for d in live if d}
+        S = len(segs)
+        self.seg_head = np.array([live.index(d) for d, _, _ in segs], dtype=np.intp)
+        self.seg_pref = f(np.hstack([np.stack([pref[d][p] if d else np.zeros(H) for d, p, _ in segs])
+                                     .reshape(S, H), np.zeros((S, 1))]))
+        col_sel, col_seg, col_of = [], [], {}
+        for s, (d, p, vals) in enumerate(segs):
+            for v in vals.tolist():
+                col_of[(d, p, v)] = len(col_sel)
+                col_sel.append(s * ccat + off[d] + v)
+                col_seg.append(s)
+        C = len(col_sel)
+        self.col_sel = np.array(col_sel, dtype=np.intp)
+        self.seg_of = np.zeros((C, S), np.float32)                         # column -> its segment
+        self.seg_of[np.arange(C), col_seg] = 1.0
+        self.s_var = np.zeros((self.n_var, C), np.float32)                 # variant -> its action's columns
+        for j, a in enumerate(bm.op_action.tolist()):
+            for d in live:
+                k = col_of.get((d, int(pids[a, d]), int(labels[a, d])))
+                if k is not None:
+                    self.s_var[j, k] = 1.0
+        seg_var = (self.s_var @ self.seg_of).T                            # (segments, variants) 0/1
+        self.g_adv = f(np.concatenate([self.s_var.T, -seg_var]))          # [columns | means] -> Q - V
+        self.support = enc.support
+        self.prob = enc.task_prob[enc.support]
+
+    # ---- inputs ------------------------------------------------------------
+    def features(self, states) -> np.ndarray:
+        """(N, atom rows + 8) float32: the atom bits of int states (or of a packed uint64 array), then the constant."""
+        nb = self.nbytes
+        if not (isinstance(states, np.ndarray) and states.dtype == np.uint64):
+            one = self.one
+            try:
+                raw = np.frombuffer(b"".join([(s | one).to_bytes(nb + 1, "little") for s in states]),
+                                    dtype=np.uint8).reshape(-1, nb + 1)
+                return self.byte_bits.take(raw, axis=0).reshape(len(raw), -1)
+            except (TypeError, AttributeError, OverflowError):   # not Python ints: the general packing
+                states = self.enc.pack(states)
+        words = np.ascontiguousarray(states.reshape(-1, self.enc.n_words), dtype="<u8")
+        raw = np.ones((len(words), nb + 1), np.uint8)
+        raw[:, :nb] = words.view(np.uint8).reshape(len(words), -1)[:, :nb]
+        return self.byte_bits.take(raw, axis=0).reshape(len(raw), -1)
+
+    def layer1(self, task: int) -> np.ndarray:
+        """A task's layer-1-and-tests matrix, its goal's bindings last (made once per task)."""
+        w = self.l1_task.get(task)
+        if w is None:
+            w = np.concatenate([self.l1_base[:, :self.g0], self.l1_base[:, self.goal_cols[task]]], axis=1)
+            w[-8, :self.hid] += self.task_part[task]
+            w = self.l1_task[task] = np.ascontiguousarray(w, dtype=np.float32)
+        return w
+
+    # ---- the network -------------------------------------------------------
+    def values(self, h1: np.ndarray, okf: np.ndarray):
+        """Per row, from layer 1 (with the constant) and the variants' 0/1 validity: the max of Q - V over the
+        applicable variants (float32, -inf where none) and V (float64)."""
+        N, H = len(h1), self.H
+        h = h1 @ self.w2
+        np.maximum(h, 0, out=h)
+        pv = h.astype(np.float64) @ self.ws_v
+        np.maximum(pv, 0, out=pv)
+        v = pv @ self.value_w
+        z = (h @ self.ws_h).reshape(N, self.n_live, H + 1).take(self.seg_head, axis=1)
+        z += self.seg_pref
+        np.maximum(z, 0, out=z)
+        y = (z.reshape(-1, H + 1) @ self.w_cat).reshape(N, -1).take(self.col_sel, axis=1)   # advantages
+        present = okf @ self.s_var
+        np.minimum(present, 1.0, out=present)                              # the valid (prefix, value) slots
+        count = present @ self.seg_of
+        np.maximum(count, 1.0, out=count)
+        present *= y
+        mean = present @ self.seg_of
+        mean /= count
+        q = np.concatenate([y, mean], axis=1) @ self.g_adv                # (N, variants) Σ centred A
+        return np.maximum.reduce(q, axis=1, where=okf > 0, initial=-np.inf), v
+
+    def q_max(self, states, task: int) -> np.ndarray:
+        """max_a Q(s, task, a) per state (a task index)."""
+        if len(states) == 0:
+            return np.zeros(0)
+        a = self.features(states) @ self.layer1(task)
+        np.maximum(a, 0, out=a)
+        adv, v = self.values(a[:, :self.t0], a[:, self.t0:self.g0])
+        goals = a[:, self.g0:]
+        if goals.any():
+            adv[goals.any(1)] = 0.0                # AUTO alone: every head's advantage centres to 0
+        return v + adv
+
+    def v_ap(self, states) -> np.ndarray:
+        """Σ_τ P(τ) max_a Q(s, τ, a) over the task support, per state."""
+        if len(states) == 0:
+            return np.zeros(0)
+        a = self.features(states) @ self.l1_base                          # no task part yet
+        hid, sup, K = self.hid, self.support, len(self.support)
+        tests = np.maximum(a[:, self.t0:], 0)
+        okf = np.ascontiguousarray(tests[:, :self.n_var])
+        sat = (tests[:, self.n_var:] @ self.goal_of[:, sup]) > 0          # (N, K)
+        tasks = np.zeros((K, hid + 1), np.float32)
+        tasks[:, :hid] = self.task_part[sup]
+        out = np.empty((len(a), K))
+        step = max(1, self.chunk // max(K, 1))
+        for lo in range(0, len(a), step):
+            hi = min(lo + step, len(a))
+            h1 = np.maximum(a[lo:hi, None, :self.t0] + tasks, 0).reshape((hi - lo) * K, -1)
+            adv, v = self.values(h1, np.repeat(okf[lo:hi], K, axis=0))
+            adv[sat[lo:hi].reshape(-1)] = 0.0
+            out[lo:hi] = (v + adv).reshape(hi - lo, K)
+        return out @ self.prob
+
+
 class ValueFunction:
     """A trained Q-network bound to a layout's encoding: greedy actions, q_max and v_ap, batched.
 
-    Inference runs on a numpy snapshot of the weights taken at construction.
+    Inference runs on numpy snapshots of the weights taken at construction:
+    `NumpyQ` for every action's Q (q_values, greedy), `BatchedQ` for the maxima
+    the searches ask for (q_max, v_ap).
     """
 
     def __init__(self, net: FactoredQNet, enc: Encoding, gamma: float = 0.97):
         """`gamma`: the discount the network was trained with (the search discounts its prefix costs by it)."""
         self.net, self.enc, self.gamma = net, enc, gamma
         self.fast = NumpyQ(net)
+        self.batched = BatchedQ(net, enc)
 
     def q_values(self, states, task) -> np.ndarray:
         """(N, actions) Q of (state, task) for every ground action and AUTO; -inf where invalid."""
@@ -298,16 +502,11 @@ class ValueFunction:
 
     def q_max(self, states, task) -> np.ndarray:
         """max_a Q(s, τ, a) per state: the value of a state for the current task."""
-        return self.q_values(states, task).max(1)
+        return self.batched.q_max(states, _task_index(task))
 
     def v_ap(self, states) -> np.ndarray:
         """V_AP(s) = Σ_τ P(τ) max_a Q(s, τ, a) per state: the preparedness value (Eq. 3.8)."""
-        packed = self.enc.pack(states)
-        if len(packed) == 0:
-            return np.zeros(0)
-        obs, valid = _pairs(self.enc, packed)
-        v = self.fast(obs, valid).max(1).reshape(len(packed), len(self.enc.support))
-        return v @ self.enc.task_prob[self.enc.support]
+        return self.batched.v_ap(states)
 
 
 def _task_index(task) -> int:

@@ -234,6 +234,67 @@ def test_boundary_cache_is_exact_and_spares_the_target_net(two_room, enc):
     np.testing.assert_allclose(moved[1:], plain[1:] + 0.97 * 5.0, rtol=1e-5)
 
 
+def _torch_q_max(net, enc, packed, tasks):
+    """max over the valid actions of the plain torch forward, per (state, task) row."""
+    from learning.qnet import masked_max
+    obs, valid = enc.observe(packed, tasks), enc.valid_for(packed, tasks)
+    with torch.no_grad():
+        q = net(torch.from_numpy(obs), torch.from_numpy(valid))
+        return masked_max(q, torch.from_numpy(valid))[0].double().numpy()
+
+
+@pytest.mark.parametrize("weights", ["random", "trained"])
+@pytest.mark.parametrize("layout", ["two_room", "three_room"])
+def test_batched_q_max_and_v_ap_match_the_torch_forward(layout, weights, request):
+    """The searches' fast path (BatchedQ) gives the torch forward's numbers, satisfied tasks and V_AP included."""
+    from pathlib import Path
+
+    from learning.qnet import BatchedQ, ValueFunction, _pairs
+    model = request.getfixturevalue(layout)
+    enc = Encoding(model)
+    if weights == "random":
+        torch.manual_seed(7)
+        net = build_network(enc).eval()
+    else:     # the large values of a trained network (two-room V reaches ~240) test float32 rounding
+        ckpt = Path(f"checkpoints/rl-anticipatory-{layout.replace('_', '-')}-seed0.pt")
+        if not ckpt.is_file():
+            pytest.skip(f"no {ckpt}")
+        net = load_value_function(ckpt, model).net
+    vf = ValueFunction(net, enc)
+    states = random_walk_states(model, 50, seed=21)
+    packed = enc.pack(states)
+    # the tests of the fast path are exact: applicable actions and satisfied goals, as the encoding's
+    b = vf.batched
+    a = np.maximum(b.features(states) @ b.l1_base, 0)
+    app = np.zeros((len(states), enc.n_actions), dtype=bool)
+    rows, var = np.nonzero(a[:, b.t0:b.g0])
+    app[rows, enc.bm.op_action[var]] = True
+    assert set(np.unique(a[:, b.t0:])) <= {0.0, 1.0}
+    assert np.array_equal(app, enc.applicable(packed))
+    sat = enc.satisfied_all(packed)
+    assert np.array_equal((a[:, b.g0:] @ b.goal_of) > 0, sat)
+    # q_max for a few tasks, among them one some of the states already satisfy (AUTO alone is valid)
+    T = len(model.tasks)
+    tasks = sorted({0, T // 2, T - 1, int(np.flatnonzero(sat.any(0))[0])})
+    assert sat[:, tasks].any()
+    for t in tasks:
+        expect = _torch_q_max(net, enc, packed, np.full(len(states), t))
+        got = vf.q_max(states, t)
+        assert got.shape == (len(states),)
+        np.testing.assert_allclose(got, expect, rtol=0, atol=1e-4)
+        np.testing.assert_allclose(vf.q_max(packed, model.tasks[t]), got, rtol=0, atol=1e-5)   # packed input
+    # V_AP: the support-weighted max over every (state, task) pair
+    obs, valid = _pairs(enc, packed)
+    with torch.no_grad():
+        from learning.qnet import masked_max
+        qm = masked_max(net(torch.from_numpy(obs), torch.from_numpy(valid)), torch.from_numpy(valid))[0]
+    expect = qm.double().numpy().reshape(len(states), len(enc.support)) @ enc.task_prob[enc.support]
+    np.testing.assert_allclose(vf.v_ap(states), expect, rtol=0, atol=1e-4)
+    small = BatchedQ(net, enc, chunk=7)            # V_AP's pairs in several chunks: the same numbers
+    np.testing.assert_allclose(small.v_ap(states[:9]), vf.v_ap(states[:9]), rtol=0, atol=1e-5)
+    assert vf.q_max([], 0).shape == (0,) and vf.v_ap([]).shape == (0,)
+
+
 # ---- the faster training path against the previous implementation ----------------------------
 def reference_forward(net, obs, valid):
     """The previous FactoredQNet.forward, kept as the reference: each head evaluated at the (row,
