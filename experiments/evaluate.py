@@ -3,12 +3,15 @@
     python -m experiments.evaluate --list-agents
     python -m experiments.evaluate --agent myopic-oracle --layout two-room [--planner internal] [--sequences 0-9]
     python -m experiments.evaluate --agent rl-greedy --checkpoint checkpoints/rl-anticipatory-two-room-seed0.pt --layout two-room
+    python -m experiments.evaluate --agent myopic-oracle --layout two-room --workers 2      # or --ray
 
 Each agent declares its own options (`--agent NAME --help` lists them). The
 default results file is results/<agent's run name>-<layout>.json; an
 interrupted run resumes from OUT.partial.json, a finished one is extended by
 more sequences, and a finished file made with another configuration is never
 replaced unless --force is given. The runner is `planning.world.runner`.
+--workers N plays the sequences on N local processes, --ray as Ray tasks
+(`experiments.workers`); the results file is the serial run's.
 """
 from __future__ import annotations
 
@@ -18,9 +21,11 @@ import sys
 from oracles.myopic import reference_path
 from planning import cli
 from planning.domain.compiler import compile_domain
+from planning.parallel import one_thread
 from planning.world.runner import default_out, evaluate
 
 from .registry import AGENTS, agent_class, describe
+from .workers import Job, play_over_workers
 
 
 def main() -> None:
@@ -34,12 +39,15 @@ def main() -> None:
     p = cli.parser(__doc__.splitlines()[0], sequences=True)
     p.add_argument("--agent", required=True, help=f"one of: {', '.join(AGENTS)} (--list-agents describes them)")
     p.add_argument("--list-agents", action="store_true", help="print the registered agents and exit")
+    p.add_argument("--workers", type=int, default=1, help="local processes, one sequence each at a time (default: 1, serial)")
+    p.add_argument("--ray", action="store_true", help="sequences as Ray tasks: a local instance, or the cluster at RAY_ADDRESS")
     p.add_argument("--force", action="store_true", help="replace a finished results file made otherwise")
     p.add_argument("--strict", action="store_true", help="exit non-zero if any planner timed out or crashed")
     cls = agent_class(known.agent) if known.agent else None
     if cls is not None:
         cls.options(p.add_argument_group(f"{known.agent} options"))
     args = p.parse_args()
+    one_thread()          # torch and BLAS on one thread, as in the workers: serial and parallel runs compute alike
     ids = cli.parse_ids(args.sequences)
     model = compile_domain(args.domain, args.layout)
     agent = cls.from_args(args, model)
@@ -47,6 +55,9 @@ def main() -> None:
     if hasattr(agent, "set_log"):
         cli.check_writable(f"{out}.windows.jsonl")
         agent.set_log(f"{out}.windows.jsonl")
+    if args.workers > 1 or args.ray:        # each sequence a work item; evaluate() below merges their rows
+        log = f"{out}.windows.jsonl" if hasattr(agent, "set_log") else None
+        play_over_workers([Job(known.agent, args, model, agent, ids, out, args.force, log)], args.workers, args.ray)
     r = evaluate(model, agent, ids, out, reference=reference_path(model), force=args.force, strict=args.strict)
     print(f"{r['agent']} {r['layout']}: cost per task {r['cost_per_task']}, actions per task "
           f"{r['actions_per_task']}, success rate {r['success_rate']}, "

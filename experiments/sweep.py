@@ -1,0 +1,246 @@
+"""Sweeps: many independent training runs or evaluations, spread over local processes or Ray.
+
+    python -m experiments.sweep --layout two-room,three-room --horizon myopic,anticipatory --seed 0-2 [--steps N] --workers 2
+    python -m experiments.sweep --kind guided --layout two-room --checkpoint CKPT --beta 1,1.25,1.5 --budget 1000,5000 --sequences 1,3,6 --ray
+
+--kind train (the default): one `learning.dqn` run per point of the grid layouts × horizons ×
+seeds × any other training setting given as a list (`--gamma 0.95,0.97`; every
+`learning.dqn` flag is accepted, a single value applies to all runs). Each run is a
+work item: it trains in RUNS/<domain>-<layout>-<horizon>-seed<seed>[-<setting><value>...]
+(resuming from its last.pt, as `learning.dqn` does) and its outcome (steps, tasks, best greedy
+evaluation, last metrics row) goes to OUT.parts/<run>.json, with its provenance, as soon as
+it ends; a part of the same settings is reused on a rerun (delete it to train again). On a
+multi-node cluster RUNS must be on a shared filesystem, since the runs write there.
+
+--kind guided: the rl-guided agent (the value-guided Bellman–Novelty search) on the
+canonical sequences (default: the development split 1,3,6) for every β × budget × depth cap; each (setting, sequence) is a work
+item, each setting's results file goes to RESULTS (`experiments.workers`: identical to
+`python -m experiments.evaluate --agent rl-guided ...` run serially).
+
+OUT (default results/sweeps/<kind>-<domain or layout>.json) lists every point with its
+figures, the wall time, the summed item times and how the items ran. --workers N: N local
+processes (default 1: serially, here); --ray: Ray tasks (plain tasks, not Ray Tune) on a
+local instance, or on the cluster at RAY_ADDRESS.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import itertools
+import json
+import re
+import sys
+import time
+from pathlib import Path
+
+from oracles.myopic import PLANNERS, reference_path
+from planning import cli
+from planning.atomic import write_json
+from planning.domain.compiler import compile_domain
+from planning.errors import DomainError
+from planning.parallel import describe, one_thread, provenance, run_items
+from planning.world.runner import default_out, evaluate
+
+from .registry import agent_class
+from .workers import Job, play_over_workers
+
+GRID = ("layout", "horizon", "seed")            # the axes every training sweep has
+TIMING_KEYS = ("steps_per_s", "updates_per_s")   # left out of the outcome: they differ run to run
+
+
+# ---- lists on the command line -------------------------------------------------------------
+def _values(text: str, kind, name: str) -> list:
+    """'0-2' -> [0, 1, 2] (integers), '1,1.5' -> [1.0, 1.5]; a single value -> [value]."""
+    out = []
+    for part in str(text).split(","):
+        part = part.strip()
+        try:
+            if kind is int and re.fullmatch(r"\d+-\d+", part):
+                lo, hi = part.split("-")
+                out += list(range(int(lo), int(hi) + 1))
+            elif kind is bool:
+                out.append(part.lower() in ("1", "true", "yes"))
+            else:
+                out.append(kind(part))
+        except ValueError:
+            raise DomainError(f"--{name.replace('_', '-')}", f"'{text}' is not a list of {kind.__name__} values") from None
+    return out
+
+
+def _field_kind(f) -> type:
+    t = str(f.type)
+    return int if t.startswith("int") else float if t.startswith("float") else bool if t == "bool" else str
+
+
+# ---- training runs -------------------------------------------------------------------------
+def train_item(item: dict) -> dict:
+    """One learning.dqn run to the end (resumed from its last.pt if there is one); its outcome."""
+    from learning.dqn import Config, Trainer, domain_defaults
+
+    model = compile_domain(item["domain"], item["layout"])
+    values = {**domain_defaults(model, item["horizon"]), **item["settings"]}
+    cfg = Config(domain=item["domain"], layout=model.layout, horizon=item["horizon"], seed=item["seed"],
+                 out=item["out"], **values)
+    trainer = Trainer(cfg, progress=False)
+    last = trainer.out / "last.pt"
+    if last.is_file():
+        trainer.resume(last)
+    trainer.train()
+    rows = [json.loads(line) for line in trainer.metrics.read_text().splitlines() if line.strip()] \
+        if trainer.metrics.is_file() else []
+    last_row = next((r for r in reversed(rows) if "eval" not in r), {})
+    return {"run": item["out"], "config": dataclasses.asdict(cfg), "steps": trainer.step,
+            "tasks": trainer.tasks_done, "best": trainer.best,
+            "last": {k: v for k, v in last_row.items() if k not in TIMING_KEYS}}
+
+
+def train_sweep(args, grid: dict, settings: dict, out: Path) -> dict:
+    """Every point of `grid` (axis -> values) as a training run; the merged outcome."""
+    axes = list(grid)
+    points = [dict(zip(axes, combo)) for combo in itertools.product(*grid.values())]
+    varied = [a for a in axes if a not in GRID and len(grid[a]) > 1]
+    domain_name = Path(args.domain).resolve().name
+    items, names = [], []
+    for p in points:
+        name = f"{domain_name}-{p['layout']}-{p['horizon']}-seed{p['seed']}" + "".join(f"-{a}{p[a]}" for a in varied)
+        items.append({"domain": args.domain, "layout": p["layout"], "horizon": p["horizon"], "seed": p["seed"],
+                      "settings": {**settings, **{a: p[a] for a in axes if a not in GRID}},
+                      "out": str(Path(args.runs) / name)})
+        names.append(name)
+    parts = Path(f"{out}.parts")
+    results: dict = {}
+    todo = []
+    for name, item in zip(names, items):
+        part = _load_part(parts / f"{name}.json")
+        if part is not None and part.get("item") == item:
+            results[name] = part
+        else:
+            todo.append((name, item))
+    prov = provenance()
+
+    def write_part(k, result, meta):
+        name, item = todo[k]
+        results[name] = {"item": item, "result": result, "provenance": {**prov, **meta}}
+        write_json(parts / f"{name}.json", results[name])
+
+    t0 = time.perf_counter()
+    run_items(train_item, [item for _, item in todo], workers=args.workers, use_ray=args.ray, on_result=write_part,
+              progress=not args.no_progress, desc="training runs")
+    wall = time.perf_counter() - t0
+    rows = []
+    for name, p in zip(names, points):
+        r = results[name]
+        best = r["result"]["best"] or {}
+        rows.append({"name": name, **p, "run": r["result"]["run"], "steps": r["result"]["steps"],
+                     "tasks": r["result"]["tasks"], "best_step": best.get("step"), "best_eval": best.get("eval"),
+                     "last": r["result"]["last"], "seconds": r["provenance"].get("seconds")})
+    return {"kind": "train", "domain": domain_name, "grid": grid, "settings": settings, "points": rows,
+            "items_run": len(todo), "items_reused": len(items) - len(todo)}, wall
+
+
+def _load_part(path: Path) -> dict | None:
+    try:
+        return json.loads(path.read_text()) if path.is_file() else None
+    except (OSError, ValueError):
+        return None                                  # half a file: run again
+
+
+# ---- rl-guided evaluations -----------------------------------------------------------------
+def guided_sweep(args, layout: str, out: Path) -> tuple[dict, float]:
+    """rl-guided on the sequences for every β × budget × depth cap; one results file per setting."""
+    model = compile_domain(args.domain, layout)
+    cls = agent_class("rl-guided")
+    ids = cli.parse_ids(args.sequences)
+    betas = _values(args.beta, float, "beta") if args.beta else [None]
+    budgets = _values(args.budget, int, "budget") if args.budget else [None]
+    depths = _values(args.depth_cap, int, "depth_cap") if args.depth_cap else [None]
+    jobs = []
+    for beta, budget, depth in itertools.product(betas, budgets, depths):
+        a = argparse.Namespace(domain=args.domain, layout=layout, checkpoint=args.checkpoint, beta=beta,
+                               budget=budget, depth_cap=depth, reference=args.reference, time_limit=args.time_limit)
+        agent = cls.from_args(a, model)
+        jobs.append(Job("rl-guided", a, model, agent, ids, default_out(agent, model, args.results), args.force))
+    t0 = time.perf_counter()
+    played = play_over_workers(jobs, args.workers, args.ray, progress=not args.no_progress)
+    wall = time.perf_counter() - t0
+    rows = []
+    for job in jobs:
+        r = evaluate(model, job.agent, ids, job.out, progress=False, reference=reference_path(model), force=args.force)
+        rows.append({"beta": job.agent.beta, "budget": job.agent.budget, "depth_cap": job.agent.depth_cap,
+                     "cost_per_task": r["cost_per_task"], "success_rate": r["success_rate"],
+                     "actions_per_task": r["actions_per_task"], "improvement_vs_myopic": r["improvement_vs_myopic"],
+                     "file": job.out})
+    return {"kind": "guided", "domain": model.name, "layout": model.layout, "checkpoint": args.checkpoint,
+            "sequences": ids, "points": rows, "items_run": played["items"], "items_reused": played["reused"]}, wall
+
+
+def main() -> None:
+    one_thread()                  # as in the workers: a serial sweep computes what a parallel one does
+    from learning.dqn import Config
+
+    p = cli.parser(__doc__.splitlines()[0], sequences=True)
+    p.add_argument("--kind", choices=("train", "guided"), default="train", help="what to sweep (default: %(default)s)")
+    p.add_argument("--workers", type=int, default=1, help="local processes (default: 1, serially here)")
+    p.add_argument("--ray", action="store_true", help="Ray tasks: a local instance, or the cluster at RAY_ADDRESS")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--force", action="store_true", help="guided: replace results files made otherwise")
+    train = p.add_argument_group("--kind train (a comma list or range makes an axis of the grid)")
+    train.add_argument("--horizon", default="myopic,anticipatory", help="(default: %(default)s)")
+    train.add_argument("--runs", default="runs/sweep", help="folder of the run folders (default: %(default)s)")
+    docs = cli.field_docs(Config)
+    for f in dataclasses.fields(Config):
+        if f.name in ("domain", "layout", "horizon", "out"):
+            continue
+        default = "0" if f.name == "seed" else "domain.toml [training], else Table A.2"
+        train.add_argument(f"--{f.name.replace('_', '-')}", dest=f.name, default=None,
+                           help=f"{docs.get(f.name, '')} (default: {default})".replace("%", "%%"))
+    guided = p.add_argument_group("--kind guided")
+    guided.add_argument("--checkpoint", help="the Q-network checkpoint whose value guides the search")
+    guided.add_argument("--beta", default=None, help="cost slacks, e.g. 1,1.25,1.5 (default: domain.toml [search])")
+    guided.add_argument("--budget", default=None, help="expansions per task, e.g. 1000,5000")
+    guided.add_argument("--depth-cap", default=None, help="depths of open nodes, e.g. 10,20")
+    guided.add_argument("--reference", default="internal", choices=PLANNERS)
+    guided.add_argument("--time-limit", type=float, default=60.0, help="reference planner seconds per task")
+    guided.add_argument("--results", default="results/sweeps", help="folder of the per-setting results files")
+    p.set_defaults(sequences="1,3,6")               # guided: the development split, as β was chosen
+    args = p.parse_args()
+
+    layouts = [x for x in (args.layout or "").split(",") if x] or [None]
+    models = [compile_domain(args.domain, layout) for layout in layouts]     # an unknown layout stops here
+    layouts = [m.layout for m in models]
+    if args.kind == "guided":
+        if not args.checkpoint:
+            raise DomainError("--checkpoint", "--kind guided needs a checkpoint")
+        if len(layouts) != 1:
+            raise DomainError("--layout", "--kind guided sweeps one layout (its checkpoint's)")
+        out = Path(args.out or f"results/sweeps/guided-{layouts[0]}.json")
+        result, wall = guided_sweep(args, layouts[0], out)
+    else:
+        grid = {"layout": layouts, "horizon": _values(args.horizon, str, "horizon"),
+                "seed": _values(args.seed if args.seed is not None else "0", int, "seed")}
+        settings = {}
+        for f in dataclasses.fields(Config):
+            v = getattr(args, f.name, None)
+            if f.name in ("domain", "layout", "horizon", "seed", "out") or v is None:
+                continue
+            values = _values(v, _field_kind(f), f.name)
+            if len(values) > 1:
+                grid[f.name] = values
+            else:
+                settings[f.name] = values[0]
+        for h in grid["horizon"]:
+            if h not in ("myopic", "anticipatory"):
+                raise DomainError("--horizon", f"'{h}' is neither myopic nor anticipatory")
+        out = Path(args.out or f"results/sweeps/train-{models[0].name}.json")
+        result, wall = train_sweep(args, grid, settings, out)
+    item_seconds = sum(pt.get("seconds") or 0 for pt in result["points"]) if args.kind == "train" else None
+    result.update(wall_seconds=round(wall, 2), ran=describe(args.workers, args.ray), provenance=provenance())
+    if item_seconds is not None:
+        result["item_seconds"] = round(item_seconds, 2)
+    write_json(out, result)
+    print(f"{result['kind']} sweep: {len(result['points'])} points ({result['items_run']} items run, "
+          f"{result['items_reused']} reused), {wall:.1f} s {result['ran']}; wrote {out}", file=sys.stdout)
+
+
+if __name__ == "__main__":
+    cli.run(main)

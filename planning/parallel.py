@@ -1,0 +1,195 @@
+"""Independent work items on local processes or on Ray: the one scheduler of the long commands.
+
+    results = run_items(fn, items, workers=1, use_ray=False, on_result=None)
+
+`fn` is a module-level function (workers import it by name) and `items` picklable values;
+the results come back in the items' order. Three ways to run them:
+
+  workers=1          here, one after another: the serial run, nothing started.
+  workers=N          a local pool of N spawned processes (no server), items handed out as
+                     workers free up.
+  use_ray=True       each item a Ray task (num_cpus=1, plain tasks, not Ray Tune).
+                     `ray.init()` joins the cluster named by RAY_ADDRESS (uploading the
+                     working directory, less .git, .venv and runs/, so the nodes run this
+                     code; they need the project's dependencies installed), else starts a
+                     local instance with N CPUs (all of them when N is 1), shut down at the end.
+
+Every worker runs with one thread for torch, OpenMP and BLAS (`one_thread`; the serial run
+too, so that both compute alike), and in the caller's working directory when that exists
+there (relative paths mean the same). `on_result(i, result, meta)`
+runs in this process as each item finishes (meta: the worker's host and pid, the item's
+seconds), so the caller writes each item's file at once and a rerun skips what is done. A
+failing item stops the run: the items not yet started are cancelled and its error is raised
+here (a DomainError stays one line).
+"""
+from __future__ import annotations
+
+import os
+import socket
+import sys
+import time
+from pathlib import Path
+
+from tqdm import tqdm
+
+from planning.errors import DomainError
+
+RAY_EXCLUDES = [".git", ".venv", "runs", "__pycache__", "*.partial.json", "*.parts"]
+
+
+_ONE_THREAD = False
+
+
+def one_thread() -> None:
+    """One thread for torch, OpenMP and BLAS in this process, set the same way here and in every worker.
+
+    The thread count changes how floating-point sums are split, so a value computed with two
+    threads differs in its last bits from one computed with one: the serial run and the workers
+    must agree for their results to be identical. torch is imported first, so that its
+    libraries are loaded when threadpoolctl limits every BLAS and OpenMP pool.
+    """
+    global _ONE_THREAD
+    if _ONE_THREAD:
+        return
+    import torch
+    from threadpoolctl import threadpool_limits
+
+    torch.set_num_threads(1)
+    threadpool_limits(1)
+    _ONE_THREAD = True
+
+
+def _worker_init(cwd: str) -> None:
+    one_thread()
+    if cwd and os.path.isdir(cwd):
+        os.chdir(cwd)
+
+
+def _call(fn, item, cwd: str | None = None):
+    """Run one item in a worker: (result, meta)."""
+    if cwd is not None:
+        _worker_init(cwd)
+    t0 = time.perf_counter()
+    result = fn(item)
+    return result, {"host": socket.gethostname(), "pid": os.getpid(), "seconds": round(time.perf_counter() - t0, 3)}
+
+
+def describe(workers: int, use_ray: bool) -> str:
+    """How items will run, in words (for a log line)."""
+    if use_ray:
+        where = os.environ.get("RAY_ADDRESS")
+        return f"Ray tasks on {where}" if where else f"Ray tasks on a local instance ({workers if workers > 1 else 'all'} CPUs)"
+    return "serially in this process" if workers <= 1 else f"{workers} local processes"
+
+
+def run_items(fn, items: list, workers: int = 1, use_ray: bool = False, on_result=None, progress: bool = True,
+              desc: str = "items") -> list:
+    """fn(item) for every item, serially, on `workers` local processes or as Ray tasks; results in order."""
+    items = list(items)
+    if workers < 1:
+        raise DomainError("--workers", f"must be at least 1, not {workers}")
+    results: list = [None] * len(items)
+    if not items:
+        return results
+    bar = tqdm(total=len(items), desc=desc, unit="item", disable=not progress)
+
+    def done(i, result, meta):
+        results[i] = result
+        if on_result is not None:
+            on_result(i, result, meta)
+        bar.update(1)
+
+    try:
+        if use_ray:
+            _run_ray(fn, items, workers, done)
+        elif workers == 1:
+            one_thread()
+            for i, item in enumerate(items):
+                t0 = time.perf_counter()
+                r = fn(item)
+                done(i, r, {"host": socket.gethostname(), "pid": os.getpid(),
+                            "seconds": round(time.perf_counter() - t0, 3)})
+        else:
+            _run_pool(fn, items, workers, done)
+    finally:
+        bar.close()
+    return results
+
+
+def _run_pool(fn, items, workers, done) -> None:
+    import multiprocessing as mp
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+    ctx = mp.get_context("spawn")          # no fork of a parent holding torch or a thread pool
+    with ProcessPoolExecutor(max_workers=min(workers, len(items)), mp_context=ctx, initializer=_worker_init,
+                             initargs=(os.getcwd(),)) as pool:
+        futures = {pool.submit(_call, fn, item): i for i, item in enumerate(items)}
+        try:
+            pending = set(futures)
+            while pending:
+                finished, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for f in finished:
+                    result, meta = f.result()
+                    done(futures[f], result, meta)
+        except BaseException:
+            for f in futures:
+                f.cancel()
+            raise
+
+
+def ray_init(workers: int = 1) -> bool:
+    """Start or join Ray (RAY_ADDRESS names a cluster); True if this call started it."""
+    try:
+        import ray
+    except ImportError:
+        raise DomainError("--ray", "Ray is not installed: pip install -e '.[ray]'") from None
+    if ray.is_initialized():
+        return False
+    common = {"include_dashboard": False, "logging_level": "ERROR", "log_to_driver": False}
+    address = os.environ.get("RAY_ADDRESS")
+    if address:
+        ray.init(address=address, runtime_env={"working_dir": os.getcwd(), "excludes": RAY_EXCLUDES}, **common)
+    else:
+        ray.init(num_cpus=workers if workers > 1 else None, object_store_memory=256 * 2**20, **common)
+    return True
+
+
+def _run_ray(fn, items, workers, done) -> None:
+    import ray
+
+    started = ray_init(workers)
+    try:
+        task = ray.remote(num_cpus=1, max_retries=0)(_call)
+        cwd = os.getcwd()
+        refs = {task.remote(fn, item, cwd): i for i, item in enumerate(items)}
+        pending = list(refs)
+        try:
+            while pending:
+                ready, pending = ray.wait(pending, num_returns=1)
+                try:
+                    result, meta = ray.get(ready[0])
+                except ray.exceptions.RayTaskError as e:
+                    cause = getattr(e, "cause", None)
+                    raise (cause if isinstance(cause, BaseException) else e) from None
+                done(refs[ready[0]], result, meta)
+        except BaseException:
+            for ref in pending:
+                ray.cancel(ref, force=True)
+            raise
+    finally:
+        if started:
+            ray.shutdown()
+
+
+def provenance() -> dict:
+    """Where a results file comes from: the commit of this checkout (if any), the command, the time."""
+    import subprocess
+
+    root = Path(__file__).resolve().parents[1]
+    try:
+        commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True,
+                                timeout=10).stdout.strip() or None
+    except (OSError, subprocess.SubprocessError):
+        commit = None
+    return {"commit": commit, "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]),
+            "written": time.strftime("%Y-%m-%dT%H:%M:%S%z")}

@@ -1,0 +1,175 @@
+"""Evaluations and sweeps over workers give the serial run's results (local processes, and Ray when installed)."""
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from experiments.registry import agent_class
+from experiments.workers import Job, play_over_workers
+from planning import cli
+from planning.atomic import write_json
+from planning.domain.compiler import compile_domain
+from planning.errors import DomainError
+from planning.parallel import one_thread, run_items
+from planning.world.runner import evaluate
+from planning.world.sequences import generate
+
+ROOT = Path(__file__).resolve().parents[2]
+TIMINGS = {"seconds", "wall_seconds", "window_seconds", "fallback_seconds", "search_seconds", "item_seconds",
+           "provenance", "ran"}
+RANDOM = ["--agent", "random", "--seed", "3"]
+MYOPIC = ["--agent", "myopic-oracle", "--planner", "internal"]
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory):
+    """The minimal grid with two canonical sequences of 5 tasks: a real folder every worker can read."""
+    folder = tmp_path_factory.mktemp("domains") / "tiny"
+    shutil.copytree(ROOT / "domains" / "minimal", folder)
+    model = compile_domain(folder, "grid")
+    for rec in generate(model, count=2, length=5):
+        write_json(folder / "sequences" / "grid" / f"seq-{rec['id']:02d}.json", rec)
+    return folder
+
+
+def strip(obj):
+    """A results JSON less its timings and provenance."""
+    if isinstance(obj, dict):
+        return {k: strip(v) for k, v in obj.items() if k not in TIMINGS}
+    if isinstance(obj, list):
+        return [strip(v) for v in obj]
+    return obj
+
+
+def job(folder, out, argv, force=False) -> Job:
+    """What `experiments.evaluate` builds from its command line."""
+    name = argv[1]
+    p = cli.parser("test", sequences=True)
+    p.add_argument("--agent")
+    agent_class(name).options(p)
+    args = p.parse_args([*argv, "--domain", str(folder), "--layout", "grid", "--sequences", "0-1", "--out", str(out)])
+    model = compile_domain(args.domain, args.layout)
+    return Job(name, args, model, agent_class(name).from_args(args, model), [0, 1], str(out), force)
+
+
+def run(j: Job, workers=1, use_ray=False) -> dict:
+    one_thread()
+    if workers > 1 or use_ray:
+        play_over_workers([j], workers, use_ray, progress=False)
+    return evaluate(j.model, j.agent, j.ids, j.out, progress=False, force=j.force)
+
+
+def square(x):
+    return x * x
+
+
+def test_run_items_keeps_the_order_and_reports_each_item():
+    seen = []
+    assert run_items(square, [3, 1, 2], workers=2, progress=False,
+                     on_result=lambda i, r, meta: seen.append((i, r))) == [9, 1, 4]
+    assert sorted(seen) == [(0, 9), (1, 1), (2, 4)]
+
+
+@pytest.mark.parametrize("argv", [RANDOM, MYOPIC], ids=["random", "myopic-oracle"])
+def test_two_workers_give_the_serial_results(tiny, tmp_path, argv):
+    serial = run(job(tiny, tmp_path / "serial.json", argv))
+    two = run(job(tiny, tmp_path / "two.json", argv), workers=2)
+    assert serial["tasks"] == 10 and strip(two) == strip(serial)
+    assert not (tmp_path / "two.json.parts").exists() and not (tmp_path / "two.json.partial.json").exists()
+
+
+def test_the_command_line_with_two_workers(tiny, tmp_path):
+    serial = run(job(tiny, tmp_path / "serial.json", RANDOM))
+    out = tmp_path / "cli.json"
+    r = subprocess.run([sys.executable, "-m", "experiments.evaluate", *RANDOM, "--domain", str(tiny), "--layout",
+                        "grid", "--sequences", "0-1", "--out", str(out), "--workers", "2"],
+                       capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert strip(json.loads(out.read_text())) == strip(serial)
+
+
+def test_each_sequence_has_its_own_file_and_a_rerun_reuses_it(tiny, tmp_path):
+    serial = run(job(tiny, tmp_path / "serial.json", RANDOM))
+    out = tmp_path / "r.json"
+    # An interrupted run left sequence 0's file (marked), not sequence 1's.
+    j = job(tiny, out, RANDOM)
+    rows = [dict(r, cost=7) for r in serial["per_task"] if r["sequence"] == 0]
+    write_json(tmp_path / "r.json.parts" / "seq-00.json",
+               {"agent": "random", "layout": "grid", "config": j.agent.config, "sequence": 0, "rows": rows,
+                "wall_seconds": 1.0})
+    played = play_over_workers([j], workers=2, progress=False)
+    assert (played["items"], played["reused"]) == (1, 1)
+    resumed = evaluate(j.model, j.agent, j.ids, j.out, progress=False)
+    assert [r["cost"] for r in resumed["per_task"] if r["sequence"] == 0] == [7] * 5
+    assert strip(resumed["per_task"][5:]) == strip(serial["per_task"][5:])
+
+
+def test_another_configuration_stops_before_any_work(tiny, tmp_path):
+    out = tmp_path / "r.json"
+    run(job(tiny, out, RANDOM))
+    with pytest.raises(DomainError, match="a finished run with seed 3, not 4; pass --force"):
+        play_over_workers([job(tiny, out, ["--agent", "random", "--seed", "4"])], workers=2, progress=False)
+    assert not (tmp_path / "r.json.parts").exists()
+    forced = run(job(tiny, out, ["--agent", "random", "--seed", "4"], force=True), workers=2)
+    assert forced["config"] == {"seed": 4}
+
+
+def test_ray_gives_the_serial_results(tiny, tmp_path):
+    pytest.importorskip("ray")
+    serial = run(job(tiny, tmp_path / "serial.json", RANDOM))
+    with_ray = run(job(tiny, tmp_path / "ray.json", RANDOM), workers=2, use_ray=True)
+    assert strip(with_ray) == strip(serial)
+
+
+# ---- sweeps ----------------------------------------------------------------------------------
+TRAIN = ["--horizon", "anticipatory", "--seed", "0-1", "--steps", "120", "--demo-tasks", "0", "--learning-starts",
+         "40", "--eval-every", "120", "--eval-tasks", "4", "--log-every", "60", "--checkpoint-every", "120",
+         "--hidden", "32", "--batch-size", "16"]
+
+
+def sweep(tiny, tmp_path, name, *extra):
+    out = tmp_path / f"{name}.json"
+    r = subprocess.run([sys.executable, "-m", "experiments.sweep", "--domain", str(tiny), "--out", str(out),
+                        "--no-progress", *extra], capture_output=True, text=True, cwd=tmp_path, timeout=600)
+    assert r.returncode == 0, r.stderr[-2000:]
+    return json.loads(out.read_text())
+
+
+def points(result):
+    return strip([{k: v for k, v in p.items() if k not in ("run", "file")} for p in result["points"]])
+
+
+GUIDED = ["--kind", "guided", "--layout", "grid", "--beta", "1,2", "--budget", "50", "--sequences", "0-1"]
+
+
+@pytest.fixture(scope="module")
+def serial_sweeps(tiny, tmp_path_factory):
+    """A training sweep (2 seeds) and an rl-guided β sweep with its first network, run serially."""
+    where = tmp_path_factory.mktemp("sweeps")
+    train = sweep(tiny, where, "serial", *TRAIN, "--runs", "runs/serial")
+    ckpt = str(where / "runs" / "serial" / "tiny-grid-anticipatory-seed0" / "best.pt")
+    guided = sweep(tiny, where, "g-serial", *GUIDED, "--checkpoint", ckpt, "--results", "r-serial")
+    return where, ckpt, train, guided
+
+
+@pytest.mark.parametrize("mode", ["workers", "ray"])
+def test_a_sweep_over_workers_gives_the_serial_results(tiny, tmp_path, serial_sweeps, mode):
+    if mode == "ray":
+        pytest.importorskip("ray")
+    how = ["--workers", "2"] if mode == "workers" else ["--ray", "--workers", "2"]
+    where, ckpt, serial, g1 = serial_sweeps
+    spread = sweep(tiny, tmp_path, "spread", *TRAIN, "--runs", "runs/spread", *how)
+    assert [p["seed"] for p in serial["points"]] == [0, 1] and points(spread) == points(serial)
+    assert len(list((tmp_path / "spread.json.parts").glob("*.json"))) == 2     # one file per run, kept
+    g2 = sweep(tiny, tmp_path, "g-spread", *GUIDED, "--checkpoint", ckpt, "--results", "r-spread", *how)
+    assert [(p["beta"], p["budget"]) for p in g1["points"]] == [(1.0, 50), (2.0, 50)]
+    assert points(g2) == points(g1)
+    for a, b in zip(g1["points"], g2["points"]):
+        ra, rb = json.loads((where / a["file"]).read_text()), json.loads((tmp_path / b["file"]).read_text())
+        assert strip(ra) == strip(rb)
+    if mode == "workers":                 # a rerun reuses every run's file
+        again = sweep(tiny, tmp_path, "spread", *TRAIN, "--runs", "runs/spread", *how)
+        assert again["items_reused"] == 2 and points(again) == points(serial)
