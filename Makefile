@@ -1,25 +1,29 @@
 # Two commands do all the set-up on a fresh machine (Python 3.11+):
 #   make run    creates .venv, installs the project, runs the main job
 #   make test   creates .venv, installs the project, runs the test suite
+# EXTRAS: the optional extras installed with the project (CI: dev,rl,ray; see pyproject.toml).
 VENV   ?= .venv
 PYTHON ?= python3
 PY     := $(VENV)/bin/python
+EXTRAS ?= dev
+comma  := ,
+STAMP  := $(VENV)/.installed-$(subst $(comma),+,$(EXTRAS))
 
-$(VENV)/.installed: pyproject.toml
+$(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[dev]'
+	$(PY) -m pip install --quiet -e '.[$(EXTRAS)]'
 	touch $@
 
 .PHONY: run test test-slow bench
-run: $(VENV)/.installed
+run: $(STAMP)
 	$(PY) -m experiments.demo --layout three-room --sequence 0
 
-test: $(VENV)/.installed
+test: $(STAMP)
 	$(PY) -m pytest
 
-test-slow: $(VENV)/.installed
+test-slow: $(STAMP)
 	$(PY) -m pytest -m slow
 
-bench: $(VENV)/.installed
+bench: $(STAMP)
 	$(PY) -m planning.domain.bench --layout three-room --out results/bench-three-room.json
