@@ -20,6 +20,8 @@ AGENTS = {
     "random": ("experiments.random_policy", "RandomPolicy"),
     "rl-greedy": ("learning.greedy", "GreedyValuePolicy"),
     "rl-guided": ("learning.guided", "ValueGuidedPlanner"),
+    "gnn-native": ("learning.gnn_native", "GNNNativePlanner"),
+    "gnn-guided": ("learning.gnn_value", "GNNGuidedPlanner"),
 }
 
 

@@ -21,16 +21,30 @@ def checkpoint(minimal, tmp_path_factory):
                                                      {"step": 1, "config": {"gamma": 0.99, "horizon": "anticipatory"}})))
 
 
+@pytest.fixture(scope="module")
+def gnn(minimal, tmp_path_factory):
+    """A tiny untrained GNN checkpoint with the grid's node features."""
+    from learning.gnn_model import GNNCostModel, save_gnn_checkpoint
+    from learning.graph import GraphEncoder
+
+    names = GraphEncoder(minimal).feature_names
+    net = GNNCostModel(len(names), width=8)
+    path = tmp_path_factory.mktemp("gnn") / "gnn-grid-seed0.pt"
+    return str(save_gnn_checkpoint(path, {"model": net.state_dict(), "dims": net.dims, "feature_names": names,
+                                          "layout": minimal.layout}))
+
+
 ARGS = {"rl-greedy": ["--checkpoint", "{ckpt}"], "rl-guided": ["--checkpoint", "{ckpt}", "--budget", "50"],
-        "clairvoyant": ["--K", "2", "--time-limit", "30"], "myopic-oracle": ["--planner", "internal"]}
+        "clairvoyant": ["--K", "2", "--time-limit", "30"], "myopic-oracle": ["--planner", "internal"],
+        "gnn-native": ["--model", "{gnn}"], "gnn-guided": ["--model", "{gnn}", "--budget", "50"]}
 
 
 @pytest.mark.parametrize("name", list(AGENTS))
-def test_agent_builds_from_its_options_and_plays(minimal, checkpoint, name):
+def test_agent_builds_from_its_options_and_plays(minimal, checkpoint, gnn, name):
     cls = agent_class(name)
     p = argparse.ArgumentParser()
     cls.options(p)
-    args = p.parse_args([a.format(ckpt=checkpoint) for a in ARGS.get(name, [])])
+    args = p.parse_args([a.format(ckpt=checkpoint, gnn=gnn) for a in ARGS.get(name, [])])
     agent = cls.from_args(args, minimal)
     assert agent.name.startswith(name.split("-")[0]) and isinstance(agent.config, dict)
     assert default_out(agent, minimal).startswith("results/") and default_out(agent, minimal).endswith(".json")

@@ -1,0 +1,263 @@
+"""The one-task GNN baseline with prior work's own selection rule (thesis §5.2.2 item 3; Talukder et al. 2024).
+
+Per task, the candidates are
+  * the myopic optimal plan (our exact A* by default), cut at the first state where the task holds;
+  * up to `max_clauses` (10) plans that solve the task together with one preparatory clause of the
+    dataset generator's clause library (`learning.gnn_dataset.ClauseLibrary`: an object clean, a
+    container filled, the jar brought to where water is used, the machine water restored), among
+    the clauses false now and costing at least the library's minimum (h_max) whose places all lie
+    in the candidate region: the locations the agent stands at along the myopic plan plus those
+    one move away. A clause's places are the locations it names and, for every object it names,
+    where that object is now (through containers; a held object is where the agent is). The
+    clauses are tried cheapest first (h_max), then in library order; each is planned optimally
+    (task AND clause).
+Each candidate is scored by its cost plus the model's Ĉ_AP of its post-consumption end state (one
+batched forward pass for all of them); the lowest score wins, and the myopic plan is kept unless
+another scores strictly lower.
+
+Augmented candidates are executed and charged in full. The runner stops a plan where the task
+first holds, so a candidate is kept only if the task first holds at its last action: an optimal
+joint plan that completes the task earlier is replaced by the clause's optimal plan followed by
+the task's optimal plan from there, kept if that completes the task only at its end with the
+clause still true; otherwise (or if longer than the task's action budget) the candidate is
+dropped and counted in the row (`dropped`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from planning.errors import DomainError
+from planning.world.agents import Planner, Reply
+
+from learning.gnn_value import GNNValue, gnn_run_name, model_summary
+
+MAX_CLAUSES = 10
+
+
+def select(costs, estimates) -> int:
+    """Index of the lowest cost + Ĉ_AP; candidate 0 (the myopic plan) unless another is strictly lower."""
+    scores = np.asarray(costs, dtype=float) + np.asarray(estimates, dtype=float)
+    best = 0
+    for i in range(1, len(scores)):
+        if scores[i] < scores[best]:
+            best = i
+    return best
+
+
+class ClauseGoal:
+    """One clause as a goal for optimal_plan (a one-binding DNF)."""
+
+    def __init__(self, pos: int, neg: int, name: str = "clause"):
+        from planning.domain.model import Op
+
+        self.name = name
+        self.bindings = (Op(pos, neg, 0, 0),)
+
+    def satisfied(self, state: int) -> bool:
+        o = self.bindings[0]
+        return state & o.pos == o.pos and not state & o.neg
+
+
+class Region:
+    """Where the agent is along a path and where one move takes it, and where a clause's places are."""
+
+    def __init__(self, model):
+        from planning.domain.roles import agent_relations, position_predicates
+
+        self.model = model
+        locs = set(model.locations)
+        self.locations = locs
+        self.position = {i: a[1] for i, a in enumerate(model.atoms) if a[0] in position_predicates(model, locs)}
+        held = agent_relations(model, locs)
+        self.held = {i: a[1] for i, a in enumerate(model.atoms) if a[0] in held and len(a) == 2}
+        self.placed = {i: (a[1], a[2]) for i, a in enumerate(model.atoms)
+                       if len(a) == 3 and a[1] not in locs and (a[2] in locs or a[2] in model.objects)}
+        pos_mask = sum(1 << i for i in self.position)
+        self.moves: dict[str, set] = {}
+        for op in model.ops:
+            src = [self.position[i] for i in _bits(op.pos & pos_mask)]
+            dst = [self.position[i] for i in _bits(op.add & pos_mask)]
+            for a in src:
+                self.moves.setdefault(a, set()).update(b for b in dst if b != a)
+
+    def agent_at(self, state: int) -> str | None:
+        return next((loc for i, loc in self.position.items() if state >> i & 1), None)
+
+    def around(self, path: list[int]) -> set:
+        """The locations the agent stands at along the path, plus those one move away."""
+        on = {loc for s in path if (loc := self.agent_at(s)) is not None}
+        return on | {b for a in on for b in self.moves.get(a, ())}
+
+    def where(self, state: int, obj: str) -> str | None:
+        """The location of an object now: through containers; a held object is at the agent's location."""
+        at = {}
+        for i, (o, x) in self.placed.items():
+            if state >> i & 1:
+                at.setdefault(o, x)
+        seen, cur = set(), obj
+        while cur not in self.locations and cur not in seen:
+            seen.add(cur)
+            if any(state >> i & 1 and o == cur for i, o in self.held.items()):
+                return self.agent_at(state)
+            if cur not in at:
+                return None
+            cur = at[cur]
+        return cur if cur in self.locations else None
+
+    def places(self, state: int, atoms) -> set:
+        """The locations a clause's atoms name, and where the objects they name are now."""
+        out = set()
+        for i in atoms:
+            for arg in self.model.atoms[i][1:]:
+                out.add(arg if arg in self.locations else self.where(state, arg))
+        out.discard(None)                  # an object that is nowhere now (the machine water, used up)
+        return out
+
+
+def _bits(mask: int) -> list[int]:
+    return [i for i in range(mask.bit_length()) if mask >> i & 1]
+
+
+class GNNNativePlanner(Planner):
+    """The GNN's Ĉ_AP scoring the myopic plan and up to 10 clause-augmented plans: cost + Ĉ_AP, lowest wins."""
+
+    name = "gnn-native"
+
+    @classmethod
+    def options(cls, p) -> None:
+        from oracles.myopic import PLANNERS
+
+        p.add_argument("--model", required=True, help="GNN checkpoint (learning.gnn_train's best.pt)")
+        p.add_argument("--max-clauses", type=int, default=MAX_CLAUSES,
+                       help="augmented candidates per task (default: %(default)s)")
+        p.add_argument("--reference", default="internal", choices=PLANNERS,
+                       help="planner of the myopic candidate (default: %(default)s, exact)")
+        p.add_argument("--time-limit", type=float, default=60.0,
+                       help="seconds per plan, myopic or augmented (default: %(default)s)")
+        p.add_argument("--exact-labels", action="store_true",
+                       help="also label every scored candidate with the exact C_AP (oracles.labelling), for the record")
+
+    @classmethod
+    def from_args(cls, args, model) -> "GNNNativePlanner":
+        return cls(model, args.model, args.max_clauses, args.reference, args.time_limit, args.exact_labels)
+
+    def __init__(self, model, gnn, max_clauses: int = MAX_CLAUSES, reference: str = "internal",
+                 time_limit: float = 60.0, exact_labels: bool = False, estimate=None):
+        """`estimate(states) -> Ĉ_AP array`: the scorer (default: the checkpoint's GNNValue.c_ap)."""
+        from oracles.myopic import MyopicOracle
+
+        from learning.gnn_dataset import ClauseLibrary, DatasetConfig
+
+        if max_clauses < 0:
+            raise DomainError("--max-clauses", f"must be at least 0, not {max_clauses}")
+        self.model, self.max_clauses, self.time_limit = model, int(max_clauses), float(time_limit)
+        self.estimate = estimate if estimate is not None else GNNValue(gnn, model).c_ap
+        self.reference = MyopicOracle(reference, time_limit)
+        self.min_cost = DatasetConfig.min_clause_cost
+        self.library = ClauseLibrary(model, self.min_cost)
+        self.region = Region(model)
+        self.max_actions = int(model.config.get("stream", {}).get("max_actions", 64))
+        self.exact_labels = exact_labels
+        self._labeller = None
+        self.config = {**(model_summary(gnn) if estimate is None else {"model": str(gnn)}),
+                       "max_clauses": self.max_clauses, "min_clause_cost": self.min_cost,
+                       "clauses": len(self.library), "region": "myopic plan locations + one move",
+                       "selection": "cost + C_AP estimate, lowest; the myopic plan unless strictly beaten",
+                       "reference": self.reference.config}
+        self.run_name = gnn_run_name(self.name, gnn) + ("" if reference == "internal" else f"-{reference}")
+        from planning.domain.batched import BatchedModel
+        from planning.heuristics.hmax import HMax
+
+        self.bm = BatchedModel(model)
+        self.hmax = HMax(model, self.bm)
+
+    def start(self, model, sequence) -> None:
+        if model is not self.model:
+            raise DomainError(model.layout, f"this agent was built for {self.model.name} {self.model.layout}")
+        self.reference.start(model, sequence)
+
+    # ---- candidates ---------------------------------------------------------------------------
+    def _path(self, state: int, plan: list) -> list[int]:
+        path = [state]
+        for a in plan:
+            path.append(self.model.apply(path[-1], a))
+        return path
+
+    def _cost(self, plan: list) -> int:
+        return int(sum(self.model.action_cost[a] for a in plan))
+
+    def _first_hold(self, path: list[int], task) -> int | None:
+        return next((k for k, s in enumerate(path) if k > 0 and task.satisfied(s)), None)
+
+    def _in_full(self, state: int, plan, task, clause) -> bool:
+        """The task first holds at the plan's last action, the clause holds there, within the budget."""
+        if plan is None or not plan or len(plan) > self.max_actions:
+            return False
+        path = self._path(state, plan)
+        return self._first_hold(path, task) == len(plan) and clause.satisfied(path[-1])
+
+    def clause_plans(self, state: int, task, myopic_path: list[int]) -> tuple[list, int, int]:
+        """[(clause text, plan)] of the augmented candidates, how many were dropped, how many clauses were in the region."""
+        from learning.gnn_dataset import JointGoal
+        from planning.search.optimal import optimal_plan
+
+        region = self.region.around(myopic_path)
+        eligible = self.library.eligible(state, self.hmax, self.bm, self.min_cost)
+        inside = [k for k in eligible if self.region.places(state, [*self.library.clauses[k][0],
+                                                                     *self.library.clauses[k][1]]) <= region]
+        if inside:
+            n = self.model.n_atoms
+            lits = [[*self.library.clauses[k][0], *(n + i for i in self.library.clauses[k][1])] for k in inside]
+            cost = self.hmax.literal_costs(self.bm.pack([state]), lits)[0]
+            relaxed = {k: int(cost[ls].max()) for k, ls in zip(inside, lits)}
+            inside.sort(key=lambda k: (relaxed[k], k))
+        out, dropped = [], 0
+        for k in inside[: self.max_clauses]:
+            pos, neg = self.library.masks[k]
+            clause = ClauseGoal(pos, neg, self.library.text(k))
+            plan = optimal_plan(self.bm, state, JointGoal(task, pos, neg), time_limit=self.time_limit).plan
+            if plan is not None and not self._in_full(state, plan, task, clause):
+                first, plan = optimal_plan(self.bm, state, clause, time_limit=self.time_limit).plan, None
+                if first:
+                    p1 = self._path(state, first)
+                    hold = self._first_hold(p1, task)
+                    if hold is None:
+                        rest = optimal_plan(self.bm, p1[-1], task, time_limit=self.time_limit).plan
+                        plan = list(first) + list(rest) if rest is not None else None
+                    elif hold == len(first):
+                        plan = list(first)
+                if plan is not None and not self._in_full(state, plan, task, clause):
+                    plan = None
+            if plan is None:
+                dropped += 1
+                continue
+            out.append((clause.name, list(plan)))
+        return out, dropped, len(inside)
+
+    def plan(self, state: int, task, upcoming: list) -> Reply:
+        ref = self.reference.plan(state, task, upcoming)
+        if ref.plan is None:
+            return Reply(None, {"status": ref.info.get("status", "unsolvable")})
+        path = self._path(state, ref.plan)
+        cut = self._first_hold(path, task)
+        if cut is None:
+            raise DomainError(task.name, "the myopic plan does not complete the task")
+        myopic = list(ref.plan[:cut])
+        augmented, dropped, in_region = self.clause_plans(state, task, path[: cut + 1])
+        names = ["myopic"] + [c for c, _ in augmented]
+        plans = [myopic] + [p for _, p in augmented]
+        costs = [self._cost(p) for p in plans]
+        ends = [task.consume(self._path(state, p)[-1]) for p in plans]
+        est = np.asarray(self.estimate(ends), dtype=float)
+        best = select(costs, est)
+        info = {"status": "solved", "candidates": len(plans), "dropped": dropped, "in_region": in_region, "chosen": names[best],
+                "c_myo": costs[0], "cost": costs[best], "score": round(float(costs[best] + est[best]), 3),
+                "myopic_score": round(float(costs[0] + est[0]), 3),
+                "c_ap_hat": [round(float(e), 3) for e in est], "candidate_costs": costs}
+        if self.exact_labels:
+            if self._labeller is None:
+                from oracles.labelling import Labeller
+
+                self._labeller = Labeller(self.model)
+            info["c_ap_exact"] = [round(float(self._labeller.label(s).c_ap), 3) for s in ends]
+        return Reply(plans[best], info)

@@ -1,0 +1,146 @@
+"""The one-task GNN as a value of the protocol (`planning.value`), and the gnn-guided agent.
+
+    v_ap(states)        = -Ĉ_AP(s) / cost_scale     the GNN's anticipatory cost, negated
+    q_max(states, task) = the same estimate         (the Bellman lane keys on it too)
+
+Ĉ_AP is in PDDL cost units; dividing by the domain's [reward] cost_scale puts it
+in the units of the Bellman–Novelty search's prefix returns (which are divided
+by the same scale), so the Bellman key G + γ^d q_max adds like to like. The
+order the value induces, which is all the terminal selection reads, is that of
+-Ĉ_AP. The estimate is undiscounted: gamma = 1.
+
+A batch of states is encoded (`learning.graph.GraphEncoder`) and valued in one
+forward pass; the estimates are cached per state, so a search that values a
+state twice runs the network once.
+
+`gnn-guided` (thesis Table 5.3, "GNN value, BN search") is the rl-guided agent
+(`learning.guided.ValueGuidedPlanner`) with this value in place of the
+Q-network's: the same search, the same reference plan, the same β, budget and
+depth cap.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from planning.errors import DomainError
+
+from learning.gnn_model import load_gnn
+from learning.guided import ValueGuidedPlanner
+
+
+def collate(arrays: list) -> tuple:
+    """One batch from GraphEncoder.arrays outputs: (x, edge_index, edge_attr, batch) tensors."""
+    xs, idx, attrs, batch, offset = [], [], [], [], 0
+    for g, (x, index, attr) in enumerate(arrays):
+        xs.append(x)
+        idx.append(index + offset)
+        attrs.append(attr)
+        batch.append(np.full(len(x), g, dtype=np.int64))
+        offset += len(x)
+    return (torch.from_numpy(np.concatenate(xs)), torch.from_numpy(np.concatenate(idx, axis=1)),
+            torch.from_numpy(np.concatenate(attrs)), torch.from_numpy(np.concatenate(batch)))
+
+
+class GNNValue:
+    """The GNN's C_AP estimate as a batched value: V_AP = q_max = -Ĉ_AP / cost_scale."""
+
+    def __init__(self, checkpoint, model, encoder=None, scale: float | None = None, gamma: float = 1.0,
+                 cache_size: int = 500_000):
+        """`checkpoint`: a learning.gnn_train checkpoint path, or a (GNNCostModel, payload) pair.
+        `encoder`: the layout's GraphEncoder (default: built from the model, MiniLM name embeddings)."""
+        from learning.graph import GraphEncoder
+
+        if isinstance(checkpoint, (str, Path)):
+            self.net, self.payload = load_gnn(checkpoint)
+            self.checkpoint = str(checkpoint)
+        else:
+            self.net, self.payload = checkpoint
+            self.checkpoint = None
+        self.net.eval()
+        self.encoder = encoder or GraphEncoder(model)
+        where = self.checkpoint or "GNN model"
+        names = self.payload.get("feature_names")
+        if names and list(names) != list(self.encoder.feature_names):
+            raise DomainError(where, f"trained on {len(names)} node features of layout "
+                                     f"{self.payload.get('layout')}, not the {self.encoder.num_features} of "
+                                     f"{model.name} {model.layout}")
+        if self.net.dims["in_features"] != self.encoder.num_features:
+            raise DomainError(where, f"takes {self.net.dims['in_features']} node features, the layout's graphs "
+                                     f"have {self.encoder.num_features}")
+        self.model = model
+        self.gamma = float(gamma)
+        self.scale = float(scale if scale is not None else model.config.get("reward", {}).get("cost_scale", 1))
+        self.cache_size = cache_size
+        self._cache: dict[int, float] = {}
+        self.forward_calls = 0
+        self.forward_states = 0
+
+    def c_ap(self, states: list) -> np.ndarray:
+        """Ĉ_AP per state in PDDL cost units; the states not seen before in one forward pass."""
+        need = [s for s in dict.fromkeys(states) if s not in self._cache]
+        if need:
+            x, index, attr, batch = collate([self.encoder.arrays(s) for s in need])
+            with torch.no_grad():
+                y = self.net(x, index, batch, attr, num_graphs=len(need)).numpy()
+            self.forward_calls += 1
+            self.forward_states += len(need)
+            if len(self._cache) + len(need) > self.cache_size:
+                self._cache.clear()
+            self._cache.update(zip(need, y.astype(float).tolist()))
+        return np.array([self._cache[s] for s in states], dtype=float)
+
+    def v_ap(self, states: list) -> np.ndarray:
+        return -self.c_ap(states) / self.scale
+
+    def q_max(self, states: list, task) -> np.ndarray:
+        return -self.c_ap(states) / self.scale
+
+
+def model_summary(path) -> dict:
+    """What a results file records of a GNN checkpoint."""
+    from learning.gnn_model import read_gnn_checkpoint
+
+    p = read_gnn_checkpoint(path)
+    cfg = p.get("config", {})
+    return {"model": str(path), "epoch": p.get("epoch"), "val_l1": p.get("val_l1"), "layout": p.get("layout"),
+            "data": cfg.get("data"), "seed": cfg.get("seed"), "edge_features": cfg.get("edge_features")}
+
+
+def gnn_run_name(agent: str, path) -> str:
+    """gnn-native + checkpoints/gnn-augmented-three-room-seed0.pt -> gnn-native-augmented-three-room-seed0."""
+    return f"{agent}-{Path(path).stem.removeprefix('gnn-')}"
+
+
+class GNNGuidedPlanner(ValueGuidedPlanner):
+    """The GNN's C_AP estimate as the value of the cost-bounded Bellman–Novelty search (Table 5.3)."""
+
+    name = "gnn-guided"
+
+    @classmethod
+    def options(cls, p) -> None:
+        from oracles.myopic import PLANNERS
+
+        p.add_argument("--model", required=True, help="GNN checkpoint (learning.gnn_train's best.pt)")
+        p.add_argument("--beta", type=float, default=None, help="cost slack β ≥ 1 (default: domain.toml [search])")
+        p.add_argument("--budget", type=int, default=None, help="expansions per task (default: domain.toml [search])")
+        p.add_argument("--depth-cap", type=int, default=None, help="depth of open nodes (default: domain.toml [search])")
+        p.add_argument("--reference", default="internal", choices=PLANNERS,
+                       help="planner of the myopic reference plan (default: %(default)s, exact)")
+        p.add_argument("--time-limit", type=float, default=60.0,
+                       help="reference planner seconds per task (default: %(default)s)")
+
+    @classmethod
+    def from_args(cls, args, model) -> "GNNGuidedPlanner":
+        return cls(model, args.model, args.beta, args.budget, args.depth_cap, args.reference, args.time_limit)
+
+    def __init__(self, model, gnn, beta=None, budget=None, depth_cap=None, reference="internal", time_limit=60.0,
+                 value=None):
+        value = value or GNNValue(gnn, model)
+        super().__init__(model, str(gnn), beta, budget, depth_cap, reference, time_limit, value=value)
+        self.config = {**model_summary(gnn), "value": "-C_AP / cost_scale (learning.gnn_value)",
+                       **{k: v for k, v in self.config.items() if k != "value"}}
+        self.run_name = self.run_name.replace(f"{self.name}-{Path(gnn).stem.removeprefix('rl-')}",
+                                              gnn_run_name(self.name, gnn), 1)

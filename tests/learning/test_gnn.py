@@ -1,0 +1,168 @@
+"""The one-task GNN baseline: the model's size, training, checkpoints, the value plug-in and native selection."""
+import json
+import pickle
+
+import numpy as np
+import pytest
+import torch
+
+from conftest import random_walk_states
+from learning.gnn_dataset import DatasetConfig, label_states, load_dataset, save_dataset
+from learning.gnn_model import (THESIS_FEATURES, THESIS_PARAMETERS, GNNCostModel, load_gnn, parameter_count,
+                                read_gnn_checkpoint, save_gnn_checkpoint)
+from learning.gnn_native import GNNNativePlanner, Region, select
+from learning.gnn_train import TrainConfig, build_model, evaluate_l1, split, train
+from learning.gnn_value import GNNValue
+from learning.graph import GraphEncoder
+from planning.errors import DomainError
+from planning.value import Value
+from test_graph import fake_embed
+
+
+def test_parameter_count_is_the_thesis_number():
+    """4 TransformerConv(64, one head) + BatchNorm, mean + add pool, linear head: 152,897 on 399 features."""
+    assert parameter_count(GNNCostModel(THESIS_FEATURES)) == THESIS_PARAMETERS == 152_897
+    # the readings the number rules out: edge features (64 x edge_dim per layer) and concatenated pools
+    assert parameter_count(GNNCostModel(THESIS_FEATURES, edge_dim=6)) == THESIS_PARAMETERS + 4 * 6 * 64
+
+
+@pytest.fixture(scope="module")
+def encoder(minimal):
+    return GraphEncoder(minimal, embed=fake_embed)
+
+
+@pytest.fixture(scope="module")
+def dataset(minimal, encoder, tmp_path_factory):
+    """Every distinct state of seeded random walks on the grid, labelled with the exact C_AP."""
+    root = tmp_path_factory.mktemp("gnn-data")
+    states = list(dict.fromkeys(random_walk_states(minimal, 400, 0, walk=20)))
+    cfg = DatasetConfig(layout="grid", domain="domains/minimal", workers=1, heuristic="hmax")
+    labels = label_states(states, cfg, root / "labels.partial.json", progress=False)
+    save_dataset(root, minimal, states, labels, {"kinds": ["faithful"] * len(states)}, encoder)
+    return root
+
+
+def test_split_is_seeded_and_80_20():
+    tr, va = split(50, 4)
+    assert len(va) == 10 and len(tr) == 40 and not set(tr) & set(va)
+    assert np.array_equal(split(50, 4)[1], va) and not np.array_equal(split(50, 8)[1], va)
+
+
+def test_training_lowers_validation_l1(dataset, tmp_path):
+    ds = load_dataset(dataset)
+    cfg = TrainConfig(data=str(dataset), seed=0, epochs=8)
+    _, val_idx = split(len(ds), 0)
+    before = evaluate_l1(build_model(cfg, ds[0].x.shape[1], ds[0].edge_attr.shape[1]), ds[torch.from_numpy(val_idx)])
+    s = train(cfg, tmp_path, progress=False)
+    assert s["best_val_l1"] < 0.5 * before
+    rows = [json.loads(line) for line in (tmp_path / "metrics.jsonl").read_text().splitlines()]
+    assert [r["epoch"] for r in rows] == list(range(1, 9)) and rows[0]["lr"] == 0.01
+    net, payload = load_gnn(tmp_path / "best.pt")
+    assert payload["val_l1"] == pytest.approx(s["best_val_l1"])
+    assert evaluate_l1(net, ds[torch.from_numpy(val_idx)]) == pytest.approx(s["best_val_l1"], rel=1e-5)
+
+
+def test_resumed_training_is_the_uninterrupted_run(dataset, tmp_path):
+    straight = train(TrainConfig(data=str(dataset), seed=4, epochs=3), tmp_path / "a", progress=False)
+    train(TrainConfig(data=str(dataset), seed=4, epochs=1), tmp_path / "b", progress=False)
+    resumed = train(TrainConfig(data=str(dataset), seed=4, epochs=3), tmp_path / "b", progress=False)
+    assert resumed["best_val_l1"] == pytest.approx(straight["best_val_l1"])
+    strip = lambda p: [{k: v for k, v in json.loads(x).items() if k != "seconds"} for x in p.read_text().splitlines()]
+    assert strip(tmp_path / "a" / "metrics.jsonl") == strip(tmp_path / "b" / "metrics.jsonl")
+    with pytest.raises(DomainError, match="other settings"):
+        train(TrainConfig(data=str(dataset), seed=8, epochs=3), tmp_path / "b", progress=False)
+
+
+def test_checkpoint_round_trip_and_refusals(encoder, tmp_path):
+    torch.manual_seed(0)
+    net = GNNCostModel(encoder.num_features).eval()
+    path = save_gnn_checkpoint(tmp_path / "gnn.pt", {"model": net.state_dict(), "dims": net.dims,
+                                                     "feature_names": encoder.feature_names, "epoch": 3})
+    back, payload = load_gnn(path)
+    g = encoder.encode(encoder.model.init)
+    assert torch.equal(back.predict(g), net.predict(g)) and payload["epoch"] == 3
+    (tmp_path / "evil.pt").write_bytes(pickle.dumps({"x": print}))
+    with pytest.raises(DomainError, match="refused|not a readable"):
+        read_gnn_checkpoint(tmp_path / "evil.pt")
+    torch.save({"net": {}}, tmp_path / "other.pt")
+    with pytest.raises(DomainError, match="not a GNN checkpoint"):
+        read_gnn_checkpoint(tmp_path / "other.pt")
+
+
+@pytest.fixture(scope="module")
+def value(minimal, encoder):
+    torch.manual_seed(1)
+    net = GNNCostModel(encoder.num_features).eval()
+    return GNNValue((net, {"feature_names": encoder.feature_names}), minimal, encoder=encoder)
+
+
+def test_value_honours_the_protocol(minimal, value):
+    states = list(dict.fromkeys(random_walk_states(minimal, 60, 1)))[:12]
+    assert isinstance(value, Value) and value.gamma == 1.0
+    calls = value.forward_calls
+    c = value.c_ap(states)
+    assert value.forward_calls == calls + 1 and c.shape == (len(states),)       # one forward pass per batch
+    task = minimal.tasks.get("clear(c)")
+    assert np.allclose(value.v_ap(states), -c / value.scale) and np.allclose(value.q_max(states, task), -c / value.scale)
+    with torch.no_grad():
+        one = [float(value.net.predict(value.encoder.encode(s))) for s in states]    # batched = one by one
+    assert np.allclose(c, one, atol=1e-4)
+    assert value.forward_calls == calls + 1                                    # cached
+    assert value.v_ap([]).shape == (0,)
+
+
+def test_value_refuses_another_layouts_model(minimal, encoder):
+    net = GNNCostModel(encoder.num_features + 1)
+    with pytest.raises(DomainError, match="node features"):
+        GNNValue((net, {"feature_names": ["x"] * (encoder.num_features + 1)}), minimal, encoder=encoder)
+
+
+def test_select_lowest_score_myopic_kept_on_ties():
+    assert select([10, 12, 11], [5.0, 1.0, 4.0]) == 1          # 15, 13, 15
+    assert select([10, 12], [5.0, 3.0]) == 0                   # 15, 15: a tie keeps the myopic plan
+    assert select([10, 12, 11], [5.0, 3.0, 4.0]) == 0
+    assert select([10, 11, 11], [5.0, 3.0, 3.0]) == 1          # the first of tied strictly better ones
+    assert select([7], [0.0]) == 0
+
+
+def _detour(minimal, state, task, myopic):
+    """A costlier plan for the task: one step away and back first, completing the task at its end."""
+    region = Region(minimal)
+    here = region.agent_at(state)
+    away = sorted(region.moves[here])[0]
+    plan = [minimal.action(f"move({here}, {away})"), minimal.action(f"move({away}, {here})")] + list(myopic)
+    s = state
+    for a in plan[:-1]:
+        s = minimal.apply(s, a)
+        assert not task.satisfied(s)
+    return plan
+
+
+@pytest.mark.parametrize("bonus, chosen", [(-3.0, "detour"), (-2.0, "myopic"), (0.0, "myopic")])
+def test_native_selection_with_a_stub_estimator(minimal, monkeypatch, bonus, chosen):
+    """The detour costs 2 more; an estimate lower by more than 2 at its end wins, lower by exactly 2 ties."""
+    task = minimal.tasks.get("clear(c)")
+    state = minimal.init
+    seen = []
+
+    def estimate(states):                   # the stub: 0 for the myopic end state, `bonus` for the detour's
+        seen.append(list(states))
+        return np.array([0.0, bonus][: len(states)])
+
+    agent = GNNNativePlanner(minimal, "stub", estimate=estimate)
+    agent.start(minimal, None)
+    myopic = agent.reference.plan(state, task, []).plan
+    detour = _detour(minimal, state, task, myopic)
+    monkeypatch.setattr(agent, "clause_plans", lambda s, t, p: ([("detour", detour)], 0, 1))
+    r = agent.plan(state, task, [])
+    assert r.info["chosen"] == chosen and r.info["candidates"] == 2
+    assert r.plan == (detour if chosen == "detour" else myopic)
+    assert r.info["candidate_costs"] == [len(myopic), len(myopic) + 2]
+    assert len(seen) == 1 and seen[0] == [task.consume(agent._path(state, p)[-1]) for p in (myopic, detour)]
+
+
+def test_candidate_region_is_the_myopic_path_plus_one_move(two_room):
+    r = Region(two_room)
+    here = r.agent_at(two_room.init)
+    assert r.around([two_room.init]) == {here} | r.moves[here]
+    assert here not in r.moves[here]
