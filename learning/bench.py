@@ -4,7 +4,7 @@ For each horizon it builds the trainer of `learning.dqn` (Table A.2 settings and
 the layout's demonstrations), then times
 
 - acting: ε-greedy steps on the persistent world, storing each transition (ε = 0.5,
-  half the steps run the network);
+  half the steps run the network; and ε = 0.05, the rate after the decay);
 - updates: `Trainer.update` (minibatch with the protected demo share, Double-DQN
   targets, backward, clipped Adam step), in two regimes of the agent's memory:
   *early* (the acting steps above: few completions in a minibatch) and *competent*
@@ -13,11 +13,18 @@ the layout's demonstrations), then times
 - the boundary target alone: on the same minibatches, the anticipatory targets minus
   the myopic ones (which skip the boundary), with the per-sync cache of target values
   (`learning.qnet.BoundaryCache`, cleared every target_every updates as in training)
-  and without it. Its share is of the time of one update.
+  and without it. Its share is of the time of one update;
+- the parts of an update (`parts_ms`): the targets, the forward and backward pass of the
+  minibatch, the clipped Adam step.
+
+A training step is one ε = 0.05 acting step and one update: `train_steps_per_s_*`.
 
     python -m learning.bench --layout two-room [--updates 1000] [--steps 2000] [--out FILE]
 
-Absolute rates depend on what else runs on the machine; the shares are the point.
+Times are this process's CPU time (torch runs one thread): on a free core that is the
+wall time, on a shared machine it is what the work costs rather than how long it waited
+for a core. Absolute rates still depend on what else runs (caches, memory bandwidth);
+ratios measured in one process are the dependable figures.
 """
 from __future__ import annotations
 
@@ -36,13 +43,15 @@ from .dqn import HORIZONS, Config, Trainer, domain_defaults
 from .qnet import COMPLETE, BoundaryCache, td_targets
 from .replay import mixed_batch
 
+clock = time.process_time
+
 
 def acting_rate(trainer: Trainer, steps: int, eps: float) -> float:
     """Environment steps per second of ε-greedy acting with storage (no updates)."""
-    t = time.perf_counter()
+    t = clock()
     for _ in range(steps):
         trainer.env_step(eps)
-    return steps / (time.perf_counter() - t)
+    return steps / (clock() - t)
 
 
 def update_profile(trainer: Trainer, n: int) -> dict:
@@ -52,26 +61,37 @@ def update_profile(trainer: Trainer, n: int) -> dict:
                for _ in range(n)]
 
     def timed(horizon, cache):
-        t = time.perf_counter()
+        t = clock()
         for i, b in enumerate(batches):
             if cache is not None and i % cfg.target_every == 0:
                 cache.clear()
             td_targets(trainer.net, trainer.target, enc, b, cfg.gamma, horizon, cache)
-        return (time.perf_counter() - t) / n
+        return (clock() - t) / n
 
     t_myopic = timed("myopic", None)
     t_cached = timed("anticipatory", BoundaryCache())
     t_plain = timed("anticipatory", None)
     trainer.boundary.clear()
-    t = time.perf_counter()
+    t = clock()
     for i in range(n):
         if i % cfg.target_every == 0:
             trainer.boundary.clear()
         trainer.update()
-    t_update = (time.perf_counter() - t) / n
+    t_update = (clock() - t) / n
+    # the same updates in their parts: targets (line 11-19), forward + backward, clip + Adam
+    parts = {"targets": 0.0}
+    trainer.boundary.clear()
+    for i, b in enumerate(batches):
+        if i % cfg.target_every == 0:
+            trainer.boundary.clear()
+        t = clock()
+        y = trainer.targets(b)
+        parts["targets"] += clock() - t
+        trainer.descend(b, y, parts)
     completions = float(np.mean([(b["kinds"] == COMPLETE).sum() for b in batches]))
     out = {"updates_per_s": round(1 / t_update, 2), "update_ms": round(1000 * t_update, 2),
-           "completions_per_minibatch": round(completions, 2)}
+           "completions_per_minibatch": round(completions, 2),
+           "parts_ms": {k: round(1000 * v / n, 2) for k, v in parts.items()}}
     if cfg.horizon == "anticipatory":
         b_cached, b_plain = max(0.0, t_cached - t_myopic), max(0.0, t_plain - t_myopic)   # timing noise
         out.update({"boundary_ms": round(1000 * b_cached, 2), "boundary_share": round(b_cached / t_update, 3),
@@ -90,12 +110,14 @@ def bench_horizon(model_dir: str, layout: str, horizon: str, steps: int, updates
         trainer = Trainer(cfg, progress=False)
         torch.manual_seed(seed)
         env = acting_rate(trainer, steps, eps=0.5)
+        greedy = acting_rate(trainer, steps, eps=0.05)
         early = update_profile(trainer, updates)
         trainer.memory = trainer.demos          # a competent policy's completion share
         competent = update_profile(trainer, updates)
-    loop = 1 / (1 / env + 1 / competent["updates_per_s"])
-    return {"env_steps_per_s": round(env, 1), "early": early, "competent": competent,
-            "train_steps_per_s_competent": round(loop, 1), "demo_transitions": len(trainer.demos)}
+    loop = lambda r: round(1 / (1 / greedy + 1 / r["updates_per_s"]), 1)
+    return {"env_steps_per_s": round(env, 1), "env_steps_per_s_greedy": round(greedy, 1), "early": early,
+            "competent": competent, "train_steps_per_s_early": loop(early),
+            "train_steps_per_s_competent": loop(competent), "demo_transitions": len(trainer.demos)}
 
 
 def main() -> None:
@@ -115,8 +137,10 @@ def main() -> None:
         r = bench_horizon(args.domain, model.layout, h, args.steps, args.updates, args.seed)
         out[h] = r
         c, e = r["competent"], r["early"]
-        line = (f"{h:12s} env {r['env_steps_per_s']:.0f} steps/s | updates/s early {e['updates_per_s']:.1f}, "
-                f"competent {c['updates_per_s']:.1f} ({c['completions_per_minibatch']:.1f} completions/minibatch)")
+        line = (f"{h:12s} env {r['env_steps_per_s_greedy']:.0f} steps/s | updates/s early {e['updates_per_s']:.1f}, "
+                f"competent {c['updates_per_s']:.1f} ({c['update_ms']:.1f} ms; "
+                f"{c['completions_per_minibatch']:.1f} completions/minibatch) | train steps/s early "
+                f"{r['train_steps_per_s_early']:.1f}, competent {r['train_steps_per_s_competent']:.1f}")
         if "boundary_share" in c:
             line += (f" | boundary share early {e['boundary_share']:.0%}, competent {c['boundary_share']:.0%} "
                      f"(uncached {c['boundary_share_uncached']:.0%}, {c['updates_per_s_uncached']:.1f} updates/s)")

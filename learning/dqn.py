@@ -45,8 +45,8 @@ from planning.errors import DomainError
 from planning.world.task_stream import PersistentWorld, TaskStream
 
 from .encoding import Encoding
-from .qnet import (COMPLETE, CONTINUE, TERMINAL, BoundaryCache, ValueFunction, build_network, masked_max, network_payload,
-                   read_checkpoint, save_checkpoint, td_targets)
+from .qnet import (COMPLETE, CONTINUE, TERMINAL, BoundaryCache, LiveGreedy, ValueFunction, build_network,
+                   network_payload, read_checkpoint, save_checkpoint, td_targets)
 from .replay import Replay, mixed_batch
 
 HORIZONS = ("myopic", "anticipatory")
@@ -250,6 +250,7 @@ class Trainer:
         self.target.load_state_dict(self.net.state_dict())
         self.boundary = BoundaryCache()        # target values of replayed completion states, per sync
         self.params = list(self.net.parameters())
+        self.greedy = LiveGreedy(self.net)     # acting: the online net's current weights, in numpy
         self.opt = torch.optim.Adam(self.params, lr=cfg.lr, fused=True)
         self.memory = Replay(cfg.buffer_size, self.enc.n_words)
         self.demos, self.demo_returns = demonstrations(model, self.enc, cfg, self.r_goal, self.scale,
@@ -302,7 +303,16 @@ class Trainer:
         cfg = self.cfg
         if batch is None:
             batch = mixed_batch(self.memory, self.demos, cfg.batch_size, cfg.demo_fraction, self.rng)
-        y = td_targets(self.net, self.target, self.enc, batch, cfg.gamma, cfg.horizon, self.boundary)
+        self.descend(batch, self.targets(batch))
+
+    def targets(self, batch: dict) -> torch.Tensor:
+        """The minibatch's Double-DQN targets (lines 9-19)."""
+        cfg = self.cfg
+        return td_targets(self.net, self.target, self.enc, batch, cfg.gamma, cfg.horizon, self.boundary)
+
+    def descend(self, batch: dict, y: torch.Tensor, parts: dict | None = None) -> None:
+        """The gradient step on the Huber loss toward y (line 20); `parts` collects its CPU seconds."""
+        t = time.process_time()
         obs = torch.from_numpy(self.enc.observe(batch["states"], batch["tasks"]))
         valid = self.enc.valid_for(batch["states"], batch["tasks"])
         actions = torch.from_numpy(batch["actions"])
@@ -310,8 +320,12 @@ class Trainer:
         loss = F.smooth_l1_loss(q, y)
         self.opt.zero_grad(set_to_none=True)
         loss.backward()
-        torch.nn.utils.clip_grad_norm_(self.params, cfg.grad_clip)
+        t1 = time.process_time()
+        torch.nn.utils.clip_grad_norm_(self.params, self.cfg.grad_clip)
         self.opt.step()
+        if parts is not None:
+            parts["gradient"] = parts.get("gradient", 0.0) + t1 - t
+            parts["optimizer"] = parts.get("optimizer", 0.0) + time.process_time() - t1
         self.stats["q"].append(float(q.detach().mean()))
         self.stats["y"].append(float(y.mean()))
         self.stats["loss"].append(float(loss.detach()))
@@ -326,12 +340,9 @@ class Trainer:
         actions = self.model.applicable(state)
         if self.rng.random() < eps:
             return int(actions[self.rng.integers(len(actions))])
-        packed = self.enc.pack([state])
-        valid = np.zeros((1, self.enc.n_actions), dtype=bool)
-        valid[0, actions] = True
-        obs = torch.from_numpy(self.enc.observe(packed, [task]))
-        with torch.inference_mode():
-            return int(masked_max(self.net(obs, torch.from_numpy(valid)), torch.from_numpy(valid))[1][0])
+        valid = np.zeros(self.enc.n_actions, dtype=bool)
+        valid[actions] = True
+        return self.greedy(self.enc.observe(self.enc.pack([state]), [task])[0], valid)
 
     # ---- the loop (lines 3-28) -----------------------------------------------------------------
     def env_step(self, eps: float) -> None:

@@ -171,23 +171,34 @@ class FactoredQNet(nn.Module):
 
     def q_labels(self, pre: torch.Tensor, masks: tuple) -> torch.Tensor:
         """(N, labels) Q of every factored label from the first layer's pre-activations (a label
-        invalid in a row gets a finite, meaningless value)."""
+        invalid in a row gets a finite, meaningless value).
+
+        Only the instances where some row has two or more valid values are evaluated: at a
+        prefix with one valid value the centred advantage of that value is A - A = 0 exactly,
+        so the others add nothing to any valid label (restaurant minibatches use 3 of 10).
+        """
         H, e, w = self.head_hidden, self.encoder, self.state_width
         parts = F.linear(e[3](e[2](e[1](pre))), self.from_state.weight[:w], self.from_state.bias[:w])
         v = self.value(torch.relu(parts[:, :H]))                                       # (N, 1)
-        if not self.n_inst:
-            return v.expand(-1, self.lab_of_slot.shape[1])
-        N = parts.shape[0]
-        z = parts[:, H:].view(N, -1, H).transpose(0, 1).index_select(0, self.inst_head)   # state parts (I, N, H)
+        N, L = parts.shape[0], self.lab_of_slot.shape[1]
+        m, count = masks
+        act = ((count[:, :, 0] >= 2).any(1).nonzero()[:, 0] if N else count.new_zeros(0, dtype=torch.int64)
+               ) if self.n_inst else torch.zeros(0, dtype=torch.int64)
+        if not len(act):
+            return v.expand(-1, L)
+        if len(act) < self.n_inst:
+            m, count = m.index_select(0, act), count.index_select(0, act)
+        z = parts[:, H:].view(N, -1, H).transpose(0, 1).index_select(0, self.inst_head[act])   # state parts (K, N, H)
         if self.prefix_mods:
             tabs = torch.cat([t.weight for t in self.prefix_mods])
-            z.add_(F.embedding_bag(self.bag, tabs, self.bag_off, mode="sum")[:, None])      # + the prefix parts
+            pref = F.embedding_bag(self.bag, tabs, self.bag_off, mode="sum").index_select(0, act)
+            z.add_(pref[:, None])                                                         # + the prefix parts
         w_out = torch.cat([o.weight for o in self.out_mods] + [z.new_zeros(1, H)])
         b_out = torch.cat([o.bias for o in self.out_mods] + [z.new_zeros(1)])
-        adv = F.linear(z.relu_(), w_out, b_out).gather(2, self.out_col.expand(-1, N, -1))       # (I, N, V)
-        m, count = masks
+        adv = F.linear(z.relu_(), w_out, b_out).gather(2, self.out_col[act].expand(-1, N, -1))   # (K, N, V)
         c = adv - (adv * m).sum(-1, keepdim=True) / count                              # centred over the valid values
-        return torch.addmm(v, c.transpose(0, 1).reshape(N, -1), self.lab_of_slot)
+        slots = self.lab_of_slot.view(self.n_inst, self.v_max, L).index_select(0, act).reshape(-1, L)
+        return torch.addmm(v, c.transpose(0, 1).reshape(N, -1), slots)
 
     def forward(self, obs: torch.Tensor, valid: torch.Tensor, masks: tuple | None = None) -> torch.Tensor:
         """(N, actions) Q of every valid ground action; -inf where invalid."""
@@ -221,6 +232,55 @@ def masked_max(q: torch.Tensor, valid: torch.Tensor):
     """(max over valid actions, argmax) per row."""
     qm = q.masked_fill(~valid, float("-inf"))
     return qm.max(dim=1)
+
+
+class LiveGreedy:
+    """The greedy action of one (state, task) under a FactoredQNet's current weights, in float32 numpy.
+
+    Acting runs the network on one row per environment step, where torch's per-operation
+    overhead is most of the cost. This reads the parameters through numpy views, so
+    optimizer steps and load_state_dict (both in place) are seen without a copy, and
+    evaluates `FactoredQNet.q_labels` for that row with a dozen numpy operations. Q is
+    the forward's up to float32 rounding.
+    """
+
+    def __init__(self, net: FactoredQNet):
+        view = lambda p: p.detach().numpy()
+        e, w, H = net.encoder, net.state_width, net.head_hidden
+        self.l1, self.l2 = (view(e[0].weight), view(e[0].bias)), (view(e[2].weight), view(e[2].bias))
+        self.ws, self.bs = view(net.from_state.weight)[:w], view(net.from_state.bias)[:w]
+        self.wv, self.bv = view(net.value.weight)[0], view(net.value.bias)
+        self.tabs = [view(t.weight) for t in net.prefix_mods]
+        self.outs = [(view(o.weight), view(o.bias)) for o in net.out_mods]
+        self.H, self.I, self.inst_head = H, net.n_inst, net.inst_head.numpy()
+        rows = sum(len(t) for t in self.tabs)
+        bag, off = net.bag.numpy(), np.append(net.bag_off.numpy(), len(net.bag))
+        self.bag_of = np.zeros((self.I, rows), dtype=np.float32)       # instance -> its prefix rows
+        for i in range(self.I):
+            self.bag_of[i, bag[off[i]:off[i + 1]]] = 1.0
+        self.out_col = net.out_col[:, 0].numpy()
+        self.slot_act, self.lab_of_slot = net.slot_act.numpy(), net.lab_of_slot.numpy()
+        self.lab_of_act = net.lab_of_act.numpy()
+
+    def __call__(self, obs: np.ndarray, valid: np.ndarray) -> int:
+        """argmax over the valid actions of Q(obs) (obs: (obs_dim,) float32; valid: (actions,) bool)."""
+        (w1, b1), (w2, b2), H = self.l1, self.l2, self.H
+        h = np.maximum(w1 @ obs + b1, 0.0)
+        h = np.maximum(w2 @ h + b2, 0.0)
+        parts = self.ws @ h + self.bs
+        q = np.full(len(self.lab_of_slot[0]), self.wv @ np.maximum(parts[:H], 0.0) + self.bv[0], dtype=np.float32)
+        if self.I:
+            z = parts[H:].reshape(-1, H)[self.inst_head]
+            if self.tabs:
+                z += self.bag_of @ np.concatenate(self.tabs)
+            w_out = np.concatenate([o for o, _ in self.outs] + [np.zeros((1, H), np.float32)])
+            b_out = np.concatenate([b for _, b in self.outs] + [np.zeros(1, np.float32)])
+            adv = np.take_along_axis(np.maximum(z, 0.0) @ w_out.T + b_out, self.out_col, 1)   # (I, V)
+            m = np.minimum(self.slot_act @ valid.astype(np.float32), 1.0).reshape(adv.shape)
+            c = adv - ((adv * m).sum(1) / np.maximum(m.sum(1), 1.0))[:, None]
+            q += c.reshape(-1) @ self.lab_of_slot
+        qa = np.where(valid, q[self.lab_of_act], -np.inf)
+        return int(qa.argmax())
 
 
 class NumpyQ:
@@ -622,9 +682,11 @@ def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict,
     tasks = np.asarray(batch["tasks"])[cont].astype(np.int64)
     n, k, A = len(cont), len(enc.support), enc.n_actions
     # the distinct completion states, their cached entries and the ones to value afresh
-    uniq, inv = np.unique(nxt[comp], axis=0, return_inverse=True) if len(comp) else (nxt[:0], None)
+    first: dict = {}
+    inv = np.array([first.setdefault(s.tobytes(), len(first)) for s in nxt[comp]], dtype=np.int64)
+    keys = list(first)
+    uniq = nxt[comp][np.unique(inv, return_index=True)[1]]
     U = len(uniq)
-    keys = [s.tobytes() for s in uniq]
     hit = [cache.entries.get(key) if cache is not None else None for key in keys]
     miss = np.array([j for j, e in enumerate(hit) if e is None], dtype=np.int64)
     valid_b = np.empty((U, k, A), dtype=bool)
@@ -651,11 +713,12 @@ def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict,
         picked = torch.empty(len(valid), dtype=torch.float32)
         rt = torch.from_numpy(rows_t)
         picked[rt] = qt.gather(1, col[best[rt]][:, None])[:, 0]
-        cols = col[best].numpy()
-        for j, e in enumerate(hit):
-            if e is not None:
-                sl = slice(n + j * k, n + (j + 1) * k)
-                picked[sl] = torch.from_numpy(e[1][np.arange(k), cols[sl]])
+        held = [j for j, e in enumerate(hit) if e is not None]
+        if held:                              # the cached target values at the online argmax
+            cols = col[best].numpy()[n:].reshape(U, k)[held]
+            qh = np.stack([hit[j][1] for j in held])
+            rows_h = torch.from_numpy((n + np.array(held)[:, None] * k + np.arange(k)).reshape(-1))
+            picked[rows_h] = torch.from_numpy(np.take_along_axis(qh, cols[:, :, None], 2).reshape(-1))
         if cache is not None:
             qt = qt.numpy()
             for i, j in enumerate(miss[:max(0, cache.max_states - len(cache.entries))]):
@@ -663,7 +726,7 @@ def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict,
     y[torch.from_numpy(cont)] += gamma * picked[:n]
     if len(comp):
         p = torch.from_numpy(enc.task_prob[enc.support]).float()
-        y[torch.from_numpy(comp)] += gamma * (picked[n:].reshape(U, k) @ p)[torch.from_numpy(inv.reshape(-1))]
+        y[torch.from_numpy(comp)] += gamma * (picked[n:].reshape(U, k) @ p)[torch.from_numpy(inv)]
     return y
 
 

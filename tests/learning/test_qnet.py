@@ -482,3 +482,24 @@ def test_committed_checkpoints_act_as_before(path):
     torch.testing.assert_close(new[valid], ref[valid], rtol=1e-5, atol=1e-4)
     assert torch.equal(new.argmax(1), ref.argmax(1))
     assert np.array_equal([int(vf.greedy([s], int(t))[0]) for s, t in zip(states, tasks)], ref.argmax(1).numpy())
+
+
+def test_live_greedy_acts_as_the_forward_and_follows_the_weights(restaurant):
+    """The trainer's numpy acting: the forward's argmax, also after the weights change in place."""
+    from learning.qnet import LiveGreedy, masked_max
+    enc = Encoding(restaurant)
+    net = trained_like(enc, 4)
+    greedy = LiveGreedy(net)
+    states = random_walk_states(restaurant, 120, seed=8)
+    tasks = np.random.default_rng(1).integers(len(restaurant.tasks), size=120)
+    obs = enc.observe(enc.pack(states), tasks)
+    valid = np.zeros((120, enc.n_actions), dtype=bool)
+    for i, s in enumerate(states):
+        valid[i, restaurant.applicable(s)] = True
+    for _ in range(2):
+        with torch.no_grad():
+            expect = masked_max(net(torch.from_numpy(obs), torch.from_numpy(valid)), torch.from_numpy(valid))[1]
+        assert [greedy(o, v) for o, v in zip(obs, valid)] == expect.tolist()
+        with torch.no_grad():                          # an optimizer step changes the weights in place
+            for p in net.parameters():
+                p.add_(0.2 * torch.randn_like(p))
