@@ -138,7 +138,13 @@ def _run_pool(fn, items, workers, done) -> None:
 
 
 def ray_init(workers: int = 1) -> bool:
-    """Start or join Ray (RAY_ADDRESS names a cluster); True if this call started it."""
+    """Start or join Ray (RAY_ADDRESS names a cluster); True if this call started it.
+
+    A local instance is kept on the loopback address (Ray's single-machine mode), so it talks
+    to nothing but this machine.
+    """
+    if not os.environ.get("RAY_ADDRESS") and "ray" not in sys.modules:
+        os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
     try:
         import ray
     except ImportError:
@@ -150,7 +156,8 @@ def ray_init(workers: int = 1) -> bool:
     if address:
         ray.init(address=address, runtime_env={"working_dir": os.getcwd(), "excludes": RAY_EXCLUDES}, **common)
     else:
-        ray.init(num_cpus=workers if workers > 1 else None, object_store_memory=256 * 2**20, **common)
+        ray.init(address="local", num_cpus=workers if workers > 1 else None, object_store_memory=256 * 2**20,
+                 **common)
     return True
 
 
