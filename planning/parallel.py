@@ -13,6 +13,10 @@ the results come back in the items' order. Three ways to run them:
                      working directory, less .git, .venv and runs/, so the nodes run this
                      code; they need the project's dependencies installed), else starts a
                      local instance with N CPUs (all of them when N is 1), shut down at the end.
+                     On the head node of a cluster started with `ray start --head`,
+                     RAY_ADDRESS=auto; from another machine, RAY_ADDRESS=HEAD:6379 and, as
+                     Ray's token authentication asks, RAY_AUTH_MODE=token with the head's
+                     ~/.ray/auth_token copied over.
 
 Every worker runs with one thread for torch, OpenMP and BLAS (`one_thread`; the serial run
 too, so that both compute alike), and in the caller's working directory when that exists
