@@ -45,8 +45,8 @@ from planning.errors import DomainError
 from planning.world.task_stream import PersistentWorld, TaskStream
 
 from .encoding import Encoding
-from .qnet import (COMPLETE, CONTINUE, TERMINAL, BoundaryCache, LiveGreedy, ValueFunction, build_network,
-                   network_payload, read_checkpoint, save_checkpoint, td_targets)
+from .qnet import (COMPLETE, CONTINUE, TERMINAL, BoundaryCache, LiveGreedy, SlotCache, ValueFunction,
+                   build_network, network_payload, read_checkpoint, save_checkpoint, td_targets)
 from .replay import Replay, mixed_batch
 
 HORIZONS = ("myopic", "anticipatory")
@@ -255,6 +255,7 @@ class Trainer:
         self.memory = Replay(cfg.buffer_size, self.enc.n_words)
         self.demos, self.demo_returns = demonstrations(model, self.enc, cfg, self.r_goal, self.scale,
                                                        self.terminal_reset, progress)
+        self.slots = SlotCache(self.enc, self.demos.capacity + self.memory.capacity)   # encodings, per slot
 
         # -- line 2: the world and the task stream ----------------------------------------------
         self.stream = TaskStream(model, cfg.seed)
@@ -308,15 +309,17 @@ class Trainer:
     def targets(self, batch: dict) -> torch.Tensor:
         """The minibatch's Double-DQN targets (lines 9-19)."""
         cfg = self.cfg
-        return td_targets(self.net, self.target, self.enc, batch, cfg.gamma, cfg.horizon, self.boundary)
+        return td_targets(self.net, self.target, self.enc, batch, cfg.gamma, cfg.horizon, self.boundary,
+                          self.slots)
 
     def descend(self, batch: dict, y: torch.Tensor, parts: dict | None = None) -> None:
         """The gradient step on the Huber loss toward y (line 20); `parts` collects its CPU seconds."""
         t = time.process_time()
-        obs = torch.from_numpy(self.enc.observe(batch["states"], batch["tasks"]))
-        valid = self.enc.valid_for(batch["states"], batch["tasks"])
-        actions = torch.from_numpy(batch["actions"])
-        q = self.net.q_taken(obs, torch.from_numpy(valid), actions)
+        if "slots" in batch:
+            obs, valid = self.slots.observe(batch)
+        else:
+            obs, valid = self.enc.observe(batch["states"], batch["tasks"]), self.enc.valid_for(batch["states"], batch["tasks"])
+        q = self.net.q_taken(torch.from_numpy(obs), torch.from_numpy(valid), torch.from_numpy(batch["actions"]))
         loss = F.smooth_l1_loss(q, y)
         self.opt.zero_grad(set_to_none=True)
         loss.backward()
@@ -334,6 +337,7 @@ class Trainer:
         """Copy the online weights into the target network; its cached boundary values are stale."""
         self.target.load_state_dict(self.net.state_dict())
         self.boundary.clear()
+        self.slots.sync()
 
     def act(self, state: int, task: int, eps: float) -> int:
         """ε-greedy over the applicable actions (line 5)."""
@@ -473,6 +477,7 @@ class Trainer:
         self.net.load_state_dict(p["net"])
         self.target.load_state_dict(p["target"])
         self.boundary.clear()
+        self.slots.sync()
         self.opt.load_state_dict(p["opt"])
         self.memory.load_state_dict(p["memory"])
         self.step, self.tasks_done, self.best = p["step"], p["tasks_done"], p["best"]

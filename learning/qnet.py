@@ -628,6 +628,71 @@ def _support_valid(enc: Encoding, packed: np.ndarray) -> np.ndarray:
     return enc.valid(np.repeat(app, len(enc.support), axis=0), sat.reshape(-1))
 
 
+class SlotCache:
+    """Per replay slot (`learning.replay.mixed_batch`'s "slots"): the encodings of its (s, τ) and
+    (s', τ) rows, kept while the slot holds the same transition, and the target network's
+    values at (s', τ), kept until the next target sync.
+
+    A transition is replayed about a hundred times while it is in the agent's memory (102
+    draws a step from 50,000) and a demonstration thousands of times, so almost every row's
+    features and validity come from here, and the target values of the continuing rows drawn
+    twice or more between two syncs. Call `sync` whenever the target network changes.
+    """
+
+    def __init__(self, enc: Encoding, size: int):
+        self.enc, self.epoch = enc, 0
+        self.writes = np.full(size, -1, dtype=np.int64)                 # the slot's write count when encoded
+        self.bits = np.zeros((size, 2, enc.n_atoms), dtype=np.uint8)     # s, s'
+        self.valid = np.zeros((size, 2, enc.n_actions), dtype=bool)      # (s, τ), (s', τ)
+        self.q_epoch = np.full(size, -1, dtype=np.int64)
+        self.q = np.zeros((size, 0), dtype=np.float32)                  # target values at (s', τ)
+
+    def sync(self) -> None:
+        """Forget the target values (the target network changed); the encodings stay."""
+        self.epoch += 1
+
+    def encode(self, batch: dict) -> np.ndarray:
+        """Encode the batch's slots that are new or rewritten since; returns the batch's slots."""
+        slots, writes = batch["slots"], batch["writes"]
+        stale = np.flatnonzero(self.writes[slots] != writes)
+        if len(stale):
+            u, first = np.unique(slots[stale], return_index=True)
+            rows = stale[first]
+            both = np.concatenate([batch["states"][rows], batch["next_states"][rows]])
+            bits = self.enc.bm.to_bits(both)
+            valid = self.enc.valid_for(both, np.tile(batch["tasks"][rows], 2))
+            m = len(rows)
+            self.bits[u, 0], self.bits[u, 1] = bits[:m], bits[m:]
+            self.valid[u, 0], self.valid[u, 1] = valid[:m], valid[m:]
+            self.writes[u] = writes[rows]
+            self.q_epoch[u] = -1
+        return slots
+
+    def observe(self, batch: dict) -> tuple:
+        """(observations, validity) of the batch's (s, τ) rows, as `Encoding.observe` / `valid_for`."""
+        slots = self.encode(batch)
+        obs = np.concatenate([self.bits[slots, 0].astype(np.float32),
+                              self.enc.task_feat[np.asarray(batch["tasks"], dtype=np.int64)]], axis=1)
+        return obs, self.valid[slots, 0]
+
+    def known(self, slots: np.ndarray) -> np.ndarray:
+        """Which of these slots have target values from the current target network."""
+        return self.q_epoch[slots] == self.epoch
+
+    def store(self, slots: np.ndarray, q: np.ndarray) -> None:
+        """Keep the target values of these slots until the next sync."""
+        if self.q.shape[1] != q.shape[1]:
+            self.q = np.zeros((len(self.q_epoch), q.shape[1]), dtype=np.float32)
+            self.q_epoch[:] = -1
+        self.q[slots] = q
+        self.q_epoch[slots] = self.epoch
+
+
+def _bits(enc: Encoding, packed: np.ndarray) -> np.ndarray:
+    """(N, atoms) uint8 atom bits of packed states (none for none)."""
+    return enc.bm.to_bits(packed) if len(packed) else np.zeros((0, enc.n_atoms), dtype=np.uint8)
+
+
 class _Pairs:
     """(state, task) rows given as packed-state bits and indices: what td_targets feeds the networks."""
 
@@ -658,7 +723,7 @@ class _Pairs:
 
 
 def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict, gamma: float,
-               horizon: str, cache: BoundaryCache | None = None) -> torch.Tensor:
+               horizon: str, cache: BoundaryCache | None = None, slots: SlotCache | None = None) -> torch.Tensor:
     """Double-DQN targets of Algorithm 1 (lines 11-17) for a batch of stored transitions.
 
     batch: next_states (N, W) uint64, tasks (N,), rewards (N,), kinds (N,) (CONTINUE /
@@ -668,7 +733,8 @@ def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict,
     first layer's state part once per state; a pair with one valid action (AUTO of a
     task that holds) has that action as its argmax without the online net; with a
     cache, the target net sees only the boundary states it has not valued since the
-    last sync.
+    last sync; with a slot cache (and the batch's "slots"), the continuing rows'
+    encodings come from it and the target net sees only the slots it has not valued.
     """
     if horizon not in ("myopic", "anticipatory"):
         raise DomainError("--horizon", f"'{horizon}' is neither myopic nor anticipatory")
@@ -681,6 +747,13 @@ def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict,
         return y
     tasks = np.asarray(batch["tasks"])[cont].astype(np.int64)
     n, k, A = len(cont), len(enc.support), enc.n_actions
+    if slots is not None and "slots" in batch:
+        sl = slots.encode(batch)[cont]
+        valid_c, bits_c, known = slots.valid[sl, 1], slots.bits[sl, 1], slots.known(sl)
+    else:
+        sl, known = None, np.zeros(n, dtype=bool)
+        valid_c, bits_c = enc.valid_for(nxt[cont], tasks), _bits(enc, nxt[cont])
+    unknown = np.flatnonzero(~known)                                    # continuing rows the target must value
     # the distinct completion states, their cached entries and the ones to value afresh
     first: dict = {}
     inv = np.array([first.setdefault(s.tobytes(), len(first)) for s in nxt[comp]], dtype=np.int64)
@@ -696,12 +769,13 @@ def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict,
         if e is not None:
             valid_b[j] = e[0]
     # rows: the continuing (s', τ), then each completion state with every task of the support
-    valid = np.concatenate([enc.valid_for(nxt[cont], tasks), valid_b.reshape(U * k, A)])
-    pairs = _Pairs(enc, enc.bm.to_bits(np.concatenate([nxt[cont], uniq])).astype(np.float32),
+    valid = np.concatenate([valid_c, valid_b.reshape(U * k, A)])
+    pairs = _Pairs(enc, np.concatenate([bits_c, _bits(enc, uniq)]).astype(np.float32),
                    np.concatenate([np.arange(n), n + np.repeat(np.arange(U), k)]).astype(np.int64),
                    np.concatenate([tasks, np.tile(enc.support, U)]).astype(np.int64), valid)
     several = np.flatnonzero(valid.sum(1) > 1)                          # rows whose argmax needs the online net
-    rows_t = np.concatenate([np.arange(n), (n + miss[:, None] * k + np.arange(k)).reshape(-1)]).astype(np.int64)
+    rows_t = np.concatenate([unknown, (n + miss[:, None] * k + np.arange(k)).reshape(-1)]).astype(np.int64)
+    nu = len(unknown)
     factored = hasattr(online, "head_masks") and hasattr(target, "q_labels")
     with torch.inference_mode():
         masks = online.head_masks(torch.from_numpy(valid)) if factored else None
@@ -713,6 +787,12 @@ def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict,
         picked = torch.empty(len(valid), dtype=torch.float32)
         rt = torch.from_numpy(rows_t)
         picked[rt] = qt.gather(1, col[best[rt]][:, None])[:, 0]
+        if sl is not None:                    # the slots' target values, kept and reused
+            kn = np.flatnonzero(known)
+            if len(kn):
+                picked[torch.from_numpy(kn)] = torch.from_numpy(slots.q[sl[kn], col[best[torch.from_numpy(kn)]].numpy()])
+            if nu:
+                slots.store(sl[unknown], qt[:nu].numpy())
         held = [j for j, e in enumerate(hit) if e is not None]
         if held:                              # the cached target values at the online argmax
             cols = col[best].numpy()[n:].reshape(U, k)[held]
@@ -722,7 +802,7 @@ def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict,
         if cache is not None:
             qt = qt.numpy()
             for i, j in enumerate(miss[:max(0, cache.max_states - len(cache.entries))]):
-                cache.entries[keys[j]] = (valid_b[j].copy(), qt[n + i * k:n + (i + 1) * k].copy())
+                cache.entries[keys[j]] = (valid_b[j].copy(), qt[nu + i * k:nu + (i + 1) * k].copy())
     y[torch.from_numpy(cont)] += gamma * picked[:n]
     if len(comp):
         p = torch.from_numpy(enc.task_prob[enc.support]).float()

@@ -22,6 +22,7 @@ class Replay:
         self.actions = np.zeros(capacity, dtype=np.int64)
         self.rewards = np.zeros(capacity, dtype=np.float32)
         self.kinds = np.zeros(capacity, dtype=np.int8)
+        self.writes = np.zeros(capacity, dtype=np.int64)    # per slot: how often written (for caches)
 
     def __len__(self) -> int:
         return self.size
@@ -31,6 +32,7 @@ class Replay:
         i = self.pos
         self.states[i], self.next_states[i] = s, s2
         self.tasks[i], self.actions[i], self.rewards[i], self.kinds[i] = task, action, reward, kind
+        self.writes[i] += 1
         self.pos = (i + 1) % self.capacity
         self.size = min(self.size + 1, self.capacity)
 
@@ -52,15 +54,22 @@ class Replay:
         self.tasks[:n], self.actions[:n], self.rewards[:n], self.kinds[:n] = \
             d["tasks"], d["actions"], d["rewards"], d["kinds"]
         self.size, self.pos = n, d["pos"]
+        self.writes += 1
 
 
 def mixed_batch(agent: Replay, demos: Replay, n: int, demo_fraction: float, rng) -> dict:
-    """A minibatch of n: round(fraction * n) demonstrations (when there are any), the rest agent experience."""
+    """A minibatch of n: round(fraction * n) demonstrations (when there are any), the rest agent experience.
+
+    Besides the transitions: "slots", where each came from (demo slot j is j, agent slot i is
+    demos.capacity + i), and "writes", how often that slot had been written (what a per-slot
+    cache checks to know the transition is still the one it saw)."""
     n_demo = int(round(demo_fraction * n)) if len(demos) else 0
     n_demo = max(n_demo, n - len(agent)) if len(demos) else 0   # early on, demos fill what the agent lacks
     parts = []
     if n_demo:
-        parts.append(demos.take(rng.integers(len(demos), size=n_demo)))
+        idx = rng.integers(len(demos), size=n_demo)
+        parts.append({**demos.take(idx), "slots": idx, "writes": demos.writes[idx]})
     if n - n_demo:
-        parts.append(agent.take(rng.integers(len(agent), size=n - n_demo)))
+        idx = rng.integers(len(agent), size=n - n_demo)
+        parts.append({**agent.take(idx), "slots": demos.capacity + idx, "writes": agent.writes[idx]})
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}

@@ -503,3 +503,35 @@ def test_live_greedy_acts_as_the_forward_and_follows_the_weights(restaurant):
         with torch.no_grad():                          # an optimizer step changes the weights in place
             for p in net.parameters():
                 p.add_(0.2 * torch.randn_like(p))
+
+
+def test_slot_cache_gives_the_same_targets_and_observations(two_room, enc):
+    """Per-slot encodings and target values: the same targets and (s, τ) rows as computing them
+    afresh, after slots are rewritten and after the target network changes (a sync)."""
+    from learning.qnet import SlotCache
+    from learning.replay import Replay, mixed_batch
+    online, target = trained_like(enc, 6), trained_like(enc, 7)
+    agent, demos = Replay(40, enc.n_words), Replay(30, enc.n_words)
+    fill = lambda memory, n, seed: [memory.add(b["states"][i], b["tasks"][i], b["actions"][i], b["rewards"][i],
+                                               b["next_states"][i], b["kinds"][i])
+                                    for b in [fixed_minibatch(two_room, enc, n, seed)] for i in range(n)]
+    fill(demos, 30, 10)
+    fill(agent, 40, 11)
+    slots, rng = SlotCache(enc, demos.capacity + agent.capacity), np.random.default_rng(0)
+    for round_ in range(4):
+        if round_ == 2:
+            fill(agent, 25, 12)                          # rewritten slots: new transitions there
+        if round_ == 3:
+            with torch.no_grad():
+                for p in target.parameters():
+                    p.add_(0.3)
+            slots.sync()
+        for _ in range(3):
+            b = mixed_batch(agent, demos, 64, 0.25, rng)
+            expect = td_targets(online, target, enc, b, 0.97, "anticipatory")
+            torch.testing.assert_close(td_targets(online, target, enc, b, 0.97, "anticipatory", None, slots),
+                                       expect, rtol=1e-5, atol=1e-4)
+            obs, valid = slots.observe(b)
+            assert np.array_equal(obs, enc.observe(b["states"], b["tasks"]))
+            assert np.array_equal(valid, enc.valid_for(b["states"], b["tasks"]))
+    assert slots.known(b["slots"][b["kinds"] == CONTINUE]).all()
