@@ -115,6 +115,39 @@ def play_sequence(model, agent, seq, bar=None) -> list[dict]:
     return rows
 
 
+def results_provenance(config: dict, played=()) -> dict:
+    """A results file's `provenance` (SPEC.md): commit, command and date (`planning.parallel.provenance`),
+    whether tracked code differed from the commit, the UTC date, the machine, the sha256 of the
+    checkpoint the configuration names, and the sequences this process played (the others were kept)."""
+    import hashlib
+    import os
+    import platform
+    import subprocess
+    from datetime import datetime, timezone
+
+    from planning.parallel import provenance
+
+    out = provenance()
+    if getattr(sys, "orig_argv", None) and "-m" in sys.orig_argv:
+        out["command"] = " ".join(["python", *sys.orig_argv[sys.orig_argv.index("-m"):]])
+    try:
+        changed = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", "*.py", "*.pddl",
+                                  "*.toml"], cwd=Path(__file__).resolve().parents[2], capture_output=True,
+                                 text=True, timeout=10).stdout.split("\n")
+        out["uncommitted_code"] = sorted(line[3:] for line in changed if line.strip())
+    except (OSError, subprocess.SubprocessError):
+        out["uncommitted_code"] = None
+    out["date_utc"] = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    out["machine"] = {"host": platform.node(), "platform": platform.platform(), "cpus": os.cpu_count(),
+                      "python": platform.python_version()}
+    checkpoint = next((v for k in ("checkpoint", "model") if isinstance(v := (config or {}).get(k), str)), None)
+    if checkpoint and Path(checkpoint).is_file():
+        out["checkpoint"] = checkpoint
+        out["checkpoint_sha256"] = hashlib.sha256(Path(checkpoint).read_bytes()).hexdigest()
+    out["played_in_this_process"] = sorted(played)
+    return out
+
+
 def planner_faults(rows) -> list[dict]:
     """The rows whose planner ran out of time or memory, or crashed."""
     return [r for r in rows if r.get("status") in PLANNER_FAULTS]
@@ -335,6 +368,7 @@ def evaluate(model, agent, ids, out=None, progress=True, reference=None, force=F
     result = summary(agent.name, model, [s.id for s in seqs], rows, wall, agent.config, reference)
     if hasattr(agent, "summary"):          # an agent's own keys (e.g. the clairvoyant's K)
         result.update(agent.summary(rows))
+    result["provenance"] = results_provenance(agent.config, [s.id for s in todo])
     if out:
         write_json(out, result)
         partial.unlink(missing_ok=True)

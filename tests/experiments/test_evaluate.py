@@ -265,7 +265,7 @@ def test_a_run_killed_and_rerun_gives_the_uninterrupted_results(tmp_path):
     whole, resumed = tmp_path / "whole.json", tmp_path / "resumed.json"
     assert subprocess.run([sys.executable, *cmd(whole)], capture_output=True).returncode == 0
     assert run_killed_and_resumed(cmd(resumed), Path(f"{resumed}.partial.json")) == 0
-    timing = ("seconds", "wall_seconds")
+    timing = ("seconds", "wall_seconds", "provenance")      # provenance names the command and the date
     strip = lambda r: {k: ([{k2: v2 for k2, v2 in x.items() if k2 not in timing} for x in v] if k == "per_task" else v)
                        for k, v in r.items() if k not in timing}
     assert strip(json.loads(resumed.read_text())) == strip(json.loads(whole.read_text()))

@@ -1,0 +1,273 @@
+"""Reading the results behind a report row: which files exist, whether they are what the row expects, and
+their figures over seeds.
+
+A run's results file is *used* only when it is finished (no OUT.partial.json
+beside it), was made by the agent and configuration the row's command line
+builds (`planning.world.runner.difference`: agent, layout, every config key,
+the checkpoint's step and evaluation among them) and, where it records one, with
+the checkpoint file that is there now (sha256). What would make a figure built on it
+doubtful is a *flag* (the report marks the figure): a commit outside this
+history, uncommitted code at the time, a sequence set other than the ten,
+failed tasks counted at their executed cost only (written before failures were
+charged). What a reader should know but does not change the figure is a
+*note*: no provenance block (written before results files recorded one; the
+report then names the commit that last touched the file).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import subprocess
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+
+from experiments.registry import AGENTS, agent_class
+from experiments.report_specs import Row, Run
+from planning.errors import DomainError
+from planning.world.sequences import COUNT, DEVELOPMENT
+
+ALL = tuple(range(COUNT))
+HELD_OUT = tuple(i for i in ALL if i not in DEVELOPMENT)
+SPLITS = {"all ten": ALL, "development (01, 03, 06)": tuple(DEVELOPMENT), "held-out seven": HELD_OUT}
+
+
+# ---- git and files ----------------------------------------------------------------------------
+def git(*args) -> str | None:
+    """Output of a git command in this checkout (None if git or the checkout is missing)."""
+    try:
+        r = subprocess.run(["git", *args], capture_output=True, text=True, timeout=20,
+                           cwd=Path(__file__).resolve().parents[1])
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return r.stdout.strip() if r.returncode == 0 else None
+
+
+@lru_cache(maxsize=None)
+def in_history(commit: str) -> bool:
+    """True if `commit` is HEAD or one of its ancestors."""
+    try:
+        r = subprocess.run(["git", "merge-base", "--is-ancestor", commit, "HEAD"], capture_output=True,
+                           timeout=20, cwd=Path(__file__).resolve().parents[1])
+    except (OSError, subprocess.SubprocessError):
+        return False
+    return r.returncode == 0
+
+
+@lru_cache(maxsize=None)
+def last_commit(path: str) -> str | None:
+    """'<short hash> <date>' of the last commit that touched `path` (None if never committed)."""
+    return git("log", "-1", "--format=%h %cs", "--", path) or None
+
+
+@lru_cache(maxsize=None)
+def sha256(path: str) -> str | None:
+    p = Path(path)
+    return hashlib.sha256(p.read_bytes()).hexdigest() if p.is_file() else None
+
+
+def writer_pid(run: Run) -> int | None:
+    """The id of another process evaluating this run now (its command line names the agent, the
+    layout and the run's options), or None."""
+    want = ["experiments.evaluate", *run.argv]
+    for proc in Path("/proc").glob("[0-9]*"):
+        try:
+            argv = (proc / "cmdline").read_bytes().decode(errors="replace").split("\0")
+        except OSError:
+            continue
+        if int(proc.name) != os.getpid() and all(tok in argv for tok in want):
+            return int(proc.name)
+    return None
+
+
+# ---- one run --------------------------------------------------------------------------------
+@dataclass
+class Loaded:
+    """One run's results file as the report sees it."""
+
+    run: Run
+    status: str                     # ok | not run | no checkpoint | agent not registered | in progress | not used
+    data: dict | None = None
+    note: str = ""                  # why it is not used, or what is missing
+    flags: list = field(default_factory=list)
+    notes: list = field(default_factory=list)
+    accounting: str = ""
+
+    @property
+    def used(self) -> bool:
+        return self.status == "ok"
+
+
+def accounting(data: dict) -> tuple[str, str | None]:
+    """(which cost a failed task carries in the file, a flag or None)."""
+    failed = [r for r in data.get("per_task", []) if not r.get("success", True)]
+    if not failed:
+        return "no failed tasks", None
+    if all("charged_cost" in r for r in failed):
+        return f"charged ({len(failed)} failed tasks: executed + optimal completion)", None
+    return (f"executed only ({len(failed)} failed tasks)",
+            f"{len(failed)} failed tasks counted at their executed cost only: written before failures were "
+            "charged, so its cost per task understates; rerun it (`experiments.reproduce` replays those sequences)")
+
+
+class Context:
+    """What reading the runs needs once: the compiled layouts and the agents built from the rows' commands."""
+
+    def __init__(self, domain: str = "domains/restaurant"):
+        self.domain = domain
+        self._models: dict = {}
+
+    def model(self, layout: str):
+        if layout not in self._models:
+            from planning.domain.compiler import compile_domain
+
+            self._models[layout] = compile_domain(self.domain, layout)
+        return self._models[layout]
+
+    def agent(self, run: Run):
+        """The agent `experiments.evaluate` builds from the run's command line."""
+        from planning import cli
+
+        cls = agent_class(run.agent)
+        p = cli.parser("reproduce", sequences=True)
+        p.add_argument("--agent")
+        cls.options(p)
+        args = p.parse_args(["--domain", self.domain, *run.argv])
+        return cls.from_args(args, self.model(run.layout))
+
+
+def load_run(run: Run, ctx: Context) -> Loaded:
+    """Find, read and check one run's results file."""
+    from planning.world.runner import difference
+
+    if run.agent not in AGENTS:
+        return Loaded(run, "agent not registered", note=f"the agent `{run.agent}` is not registered yet")
+    if run.checkpoint and not Path(run.checkpoint).is_file():
+        return Loaded(run, "no checkpoint", note=f"`{run.checkpoint}` does not exist")
+    out = Path(run.out)
+    if Path(f"{out}.partial.json").is_file():
+        pid = writer_pid(run)
+        return Loaded(run, "in progress", note=f"being written by process {pid}" if pid else
+                      "interrupted: a .partial.json is there (reproduce resumes it)")
+    if not out.is_file():
+        return Loaded(run, "not run", note=f"`{run.out}` does not exist")
+    try:
+        data = json.loads(out.read_text())
+        assert isinstance(data, dict) and isinstance(data.get("per_sequence"), list)
+    except (OSError, ValueError, AssertionError):
+        return Loaded(run, "not used", note="unreadable or not a results file")
+    try:
+        agent = ctx.agent(run)
+    except DomainError as e:
+        return Loaded(run, "not used", data, note=f"the row's agent cannot be built: {e}")
+    diff = difference(data, agent, ctx.model(run.layout))
+    if diff:
+        return Loaded(run, "not used", data, note=f"made with {diff} (the row expects the command's configuration)")
+    loaded = Loaded(run, "ok", data)
+    loaded.accounting, flag = accounting(data)
+    if flag:
+        loaded.flags.append(flag)
+    seqs = sorted(s["id"] for s in data["per_sequence"])
+    if seqs != list(ALL):
+        loaded.flags.append(f"sequences {seqs} only")
+    prov = data.get("provenance")
+    if not isinstance(prov, dict):
+        loaded.notes.append("no provenance block: written before results files recorded one")
+    else:
+        commit = prov.get("commit")
+        if not commit:
+            loaded.flags.append("provenance records no commit")
+        elif not in_history(commit):
+            loaded.flags.append(f"made at commit {commit[:10]}, which is not in this checkout's history")
+        if prov.get("uncommitted_code"):
+            loaded.flags.append(f"made with uncommitted changes to {', '.join(prov['uncommitted_code'][:4])}")
+        if prov.get("checkpoint_sha256") and run.checkpoint and prov["checkpoint_sha256"] != sha256(run.checkpoint):
+            loaded.status = "not used"
+            loaded.note = f"made with another `{run.checkpoint}` (sha256 {prov['checkpoint_sha256'][:12]}…)"
+    return loaded
+
+
+# ---- one row over its seeds -----------------------------------------------------------------
+def mean_std(xs: list[float]) -> tuple[float | None, float | None]:
+    """Mean and sample standard deviation (None with fewer than two values)."""
+    if not xs:
+        return None, None
+    m = sum(xs) / len(xs)
+    return m, (math.sqrt(sum((x - m) ** 2 for x in xs) / (len(xs) - 1)) if len(xs) > 1 else None)
+
+
+def split_figures(data: dict, ids) -> dict | None:
+    """Cost, success and steps per task of one results file over the sequences `ids` it holds."""
+    seqs = [s for s in data["per_sequence"] if s["id"] in set(ids)]
+    tasks = sum(s["tasks"] for s in seqs)
+    if not tasks:
+        return None
+    return {"cost": sum(s["cost"] for s in seqs) / tasks, "success": sum(s["successes"] for s in seqs) / tasks,
+            "steps": sum(s["actions"] for s in seqs) / tasks, "sequences": [s["id"] for s in seqs], "tasks": tasks}
+
+
+@dataclass
+class RowResult:
+    """A row's runs as loaded, and its figures over the used ones."""
+
+    row: Row
+    loaded: list
+
+    @property
+    def used(self) -> list[dict]:
+        return [x.data for x in self.loaded if x.used]
+
+    @property
+    def flagged(self) -> bool:
+        return any(x.flags for x in self.loaded if x.used)
+
+    def figures(self, ids=ALL) -> dict | None:
+        """Mean and std over seeds of cost, success and steps per task on the sequences all used files hold."""
+        used = self.used
+        if not used:
+            return None
+        common = set(ids)
+        for d in used:
+            common &= {s["id"] for s in d["per_sequence"]}
+        per = [split_figures(d, sorted(common)) for d in used]
+        if not common or None in per:
+            return None
+        out = {"n": len(per), "sequences": sorted(common), "seeds": [x.run.seed for x in self.loaded if x.used]}
+        for key in ("cost", "success", "steps"):
+            out[key], out[f"{key}_std"] = mean_std([p[key] for p in per])
+            out[f"{key}_seeds"] = [p[key] for p in per]
+        return out
+
+
+def load_rows(rows: list[Row], ctx: Context) -> dict[str, RowResult]:
+    """{row key: RowResult} of one layout's rows."""
+    return {row.key: RowResult(row, [load_run(run, ctx) for run in row.runs]) for row in rows}
+
+
+def improvement(result: RowResult, reference: RowResult, ids=ALL) -> float | None:
+    """(C_oracle − C) / C_oracle on the sequences both hold (None where either is missing)."""
+    mine = result.figures(ids)
+    if mine is None:
+        return None
+    ref = reference.figures(mine["sequences"])
+    if ref is None or ref["sequences"] != mine["sequences"]:
+        return None
+    return (ref["cost"] - mine["cost"]) / ref["cost"]
+
+
+def read_jsonl(path) -> list[dict]:
+    """The rows of a metrics.jsonl (a torn last line dropped); [] if the file is missing."""
+    p = Path(path)
+    if not p.is_file():
+        return []
+    rows = []
+    for line in p.read_text(errors="replace").splitlines():
+        try:
+            row = json.loads(line)
+        except ValueError:
+            continue
+        if isinstance(row, dict):
+            rows.append(row)
+    return rows

@@ -1,0 +1,174 @@
+"""The reproduction report: its statistics against hand computations, which results files it uses and flags,
+running what is missing (tiny case), the figures, and the report from the committed results."""
+import itertools
+import json
+import math
+import time
+from pathlib import Path
+
+import pytest
+from scipy import stats as sps
+
+from experiments import report_figures as figs
+from experiments import stats
+from experiments.report_data import Context, load_run
+from experiments.report_specs import Row, Run
+from experiments.reproduce import needs_run, report, run_missing
+from planning.world.sequences import Sequence
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def results_set(per_seed: list[list[float]], tasks: int = 50) -> list[dict]:
+    """Results JSONs (one per seed) whose sequence i costs per_seed[seed][i] per task."""
+    return [{"per_sequence": [{"id": i, "cost": c * tasks, "tasks": tasks, "successes": tasks, "actions": 7 * tasks}
+                              for i, c in enumerate(costs)]} for costs in per_seed]
+
+
+# ---- statistics -----------------------------------------------------------------------------
+def test_wilcoxon_matches_the_hand_enumeration():
+    """Six paired sequences, A cheaper on five: differences −10, −20, −30, +40, −50, −60 (A averaged over two
+    seeds). Ranks 1..6, W+ = 4; under H0 each sign is a coin: P(W+ ≤ 4) counts the rank subsets summing to
+    ≤ 4: {}, {1}, {2}, {3}, {4}, {1,2}, {1,3} = 7 of 64, so the two-sided p is 14/64."""
+    b = [1000, 1100, 1200, 1300, 1400, 1500]
+    diffs = [-10, -20, -30, 40, -50, -60]
+    a = results_set([[x + d - 5 for x, d in zip(b, diffs)], [x + d + 5 for x, d in zip(b, diffs)]])
+    res = stats.wilcoxon_paired(stats.sequence_costs(a), stats.sequence_costs(results_set([b])))
+    assert (res["n"], res["a_cheaper"], res["statistic"]) == (6, 5, 4.0)
+    assert res["p"] == pytest.approx(14 / 64)
+    ranks = range(1, 7)              # the same p by enumerating all 2^6 sign assignments
+    w_plus = [sum(r for r, s in zip(ranks, signs) if s) for signs in itertools.product((0, 1), repeat=6)]
+    assert res["p"] == pytest.approx(sum(min(w, 21 - w) <= 4 for w in w_plus) / 64)
+
+
+def test_wilcoxon_one_way_reaches_the_thesis_minima():
+    """Every pair one way: p = 2/2^n, the thesis's 0.002 at n = 10 and 0.0156 at n = 7."""
+    b = results_set([[1300 + 10 * i for i in range(10)]])
+    a = results_set([[1000 + 7 * i for i in range(10)]])
+    all_ten = stats.compare(a, b)["wilcoxon"]
+    held_out = stats.compare(a, b, ids=[0, 2, 4, 5, 7, 8, 9])["wilcoxon"]
+    assert (all_ten["n"], all_ten["a_cheaper"], all_ten["p"]) == (10, 10, pytest.approx(2 / 1024))
+    assert (held_out["n"], held_out["p"]) == (7, pytest.approx(2 / 128))
+
+
+def test_welch_matches_the_hand_computation():
+    """Seed costs A = 10, 12, 14 (mean 12, variance 4), B = 20, 21 (mean 20.5, variance 0.5):
+    se = √(4/3 + 0.5/2), t = 8.5 / se, Welch–Satterthwaite df, reduction 8.5 / 20.5 and its interval
+    (8.5 ± q se) / 20.5 with q the 0.975 quantile of t(df)."""
+    a = results_set([[10, 10], [12, 12], [14, 14]])
+    b = results_set([[20, 20], [21, 21]])
+    res = stats.compare(a, b)["welch"]
+    se = math.sqrt(4 / 3 + 0.5 / 2)
+    df = (4 / 3 + 0.25) ** 2 / ((4 / 3) ** 2 / 2 + 0.25 ** 2 / 1)
+    assert res["t"] == pytest.approx(8.5 / se) and res["t"] == pytest.approx(6.7551, abs=1e-4)
+    assert res["df"] == pytest.approx(df) and df == pytest.approx(2.6350, abs=1e-4)
+    assert res["reduction"] == pytest.approx(8.5 / 20.5)
+    q = sps.t.ppf(0.975, df)
+    assert res["ci"] == pytest.approx(((8.5 - q * se) / 20.5, (8.5 + q * se) / 20.5))
+    assert res["p"] == pytest.approx(sps.ttest_ind([10, 12, 14], [20, 21], equal_var=False).pvalue)
+
+
+def test_welch_from_the_thesis_table_gives_its_interval():
+    """Table 5.2's 978 ± 127 (5 seeds) against 1,308 ± 1 (4 seeds): t(4) ≈ 5.8, p ≈ .004, 13.1%–37.3%."""
+    res = stats.welch_from_stats(978, 127, 5, 1308, 1, 4)
+    assert res["t"] == pytest.approx(5.78, abs=0.05) and res["df"] == pytest.approx(4.0, abs=0.01)
+    assert res["p"] == pytest.approx(0.004, abs=0.001)
+    assert res["ci"] == pytest.approx((0.131, 0.373), abs=0.002)
+    assert res["reduction"] == pytest.approx(0.252, abs=0.001)
+
+
+def test_one_seed_per_side_is_a_reason_not_a_number():
+    res = stats.compare(results_set([[1, 2]]), results_set([[3, 4]]))
+    assert "t" not in res["welch"] and "at least 2" in res["welch"]["reason"]
+    assert res["welch"]["reduction"] == pytest.approx(1 - 1.5 / 3.5)
+
+
+# ---- which files a row uses -----------------------------------------------------------------
+@pytest.fixture
+def tiny(two_room, tmp_path, monkeypatch):
+    """Three-task canonical sequences, a context holding the compiled layout, and a `random` run."""
+    import planning.world.runner as runner
+
+    real_load = runner.load
+    monkeypatch.setattr(runner, "load", lambda model, ids: [Sequence(i, 100 + i, s.tasks[:3])
+                                                            for i, s in zip(ids, real_load(model, ids))])
+    monkeypatch.chdir(tmp_path)
+    ctx = Context(str(ROOT / "domains" / "restaurant"))
+    ctx._models["two-room"] = two_room
+    run = Run("random", "two-room", ("--seed", "1"), str(tmp_path / "random-seed1-two-room.json"))
+    return ctx, run, Row("random", "Random", "two-room", (run,))
+
+
+def test_run_missing_writes_provenance_and_resumes(tiny):
+    """The non-report path on a tiny case: the run is played through the registry and the runner, its file
+    names the run's command, and a second pass finds nothing to do."""
+    ctx, run, row = tiny
+    assert load_run(run, ctx).status == "not run"
+    assert run_missing([row], ctx, ids=[0, 1], progress=False, via="python -m experiments.reproduce") == [run.out]
+    data = json.loads(Path(run.out).read_text())
+    prov = data["provenance"]
+    assert prov["command"] == run.command and prov["via"] == "python -m experiments.reproduce"
+    assert prov["played_in_this_process"] == [0, 1] and prov["date_utc"].endswith("Z")
+    assert {"commit", "machine", "uncommitted_code"} <= set(prov)
+    loaded = load_run(run, ctx)
+    assert loaded.used and loaded.accounting.startswith(("charged", "no failed"))
+    assert not needs_run(loaded, [0, 1]) and needs_run(loaded, [0, 1, 2])
+    assert run_missing([row], ctx, ids=[0, 1], progress=False) == []
+
+
+def test_a_row_flags_or_refuses_what_it_does_not_expect(tiny):
+    ctx, run, row = tiny
+    run_missing([row], ctx, ids=[0, 1], progress=False)
+    data = json.loads(Path(run.out).read_text())
+    failed = [r for r in data["per_task"] if not r["success"]]
+    assert failed, "the random policy is expected to fail one of six tasks"
+    legacy = json.loads(json.dumps(data))          # a file from before failures were charged
+    for r in legacy["per_task"]:
+        for k in ("executed_cost", "completion_cost", "charged_cost"):
+            r.pop(k, None)
+    legacy.pop("provenance")
+    Path(run.out).write_text(json.dumps(legacy))
+    loaded = load_run(run, ctx)
+    assert loaded.used and loaded.accounting.startswith("executed only")
+    assert any("executed cost only" in f for f in loaded.flags) and any("no provenance" in n for n in loaded.notes)
+    assert needs_run(loaded, [0, 1])               # reproduce would replay and charge it
+    Path(run.out).write_text(json.dumps({**data, "config": {"seed": 2}}))
+    other = load_run(run, ctx)
+    assert other.status == "not used" and "seed 2" in other.note
+    Path(f"{run.out}.partial.json").write_text("{}")
+    assert load_run(run, ctx).status == "in progress"
+    assert load_run(Run("no-such-agent", "two-room", (), "x.json"), ctx).status == "agent not registered"
+    assert load_run(Run("rl-greedy", "two-room", ("--checkpoint", "none.pt"), "x.json", 0, "none.pt"),
+                    ctx).status == "no checkpoint"
+
+
+# ---- figures --------------------------------------------------------------------------------
+def test_figures_draw_what_they_have_and_nothing_otherwise(tmp_path):
+    run = lambda scale: [{"step": s, "success_rate": s / 1000, "task_return": scale * s / 1000,
+                          "selected_q": 3.0 * scale * s / 1000, "td_target": 3.0 * scale * s / 1000,
+                          "action_share": {"refill-water": 0.01 * s / 1000}} for s in range(0, 1001, 100)]
+    logs = {"two-room": {"myopic": [run(1), run(2)], "anticipatory": [run(3)]}}
+    assert figs.training_curves(logs, tmp_path / "a1.png").stat().st_size > 1000
+    assert figs.refill_share({"anticipatory": run(1)}, tmp_path / "a2.png").is_file()
+    assert figs.training_curves({"two-room": {"myopic": []}}, tmp_path / "none.png") is None
+    assert figs.refill_share({}, tmp_path / "none.png") is None
+    assert figs.greedy_vs_guided({"two-room": {}}, {}, tmp_path / "none.png") is None
+    assert not (tmp_path / "none.png").exists()
+
+
+def test_report_only_from_the_committed_results(tmp_path, monkeypatch):
+    """`--report-only` on this checkout's results: every table and figure section, the GNN rows 'not run'
+    with their commands, the myopic oracle's figure from its file, the PNGs written beside the report."""
+    monkeypatch.chdir(ROOT)
+    out = tmp_path / "results.md"
+    start = time.perf_counter()
+    text = report(["two-room", "three-room"], Context(), out, "python -m experiments.reproduce --report-only")
+    assert time.perf_counter() - start < 120
+    for heading in ("## Table 5.2", "## Table 5.3", "## Table A.4", "## Held-out seven", "## Share of the clairvoyant",
+                    "## Statistics", "## Figures", "## Runs not yet made", "## Provenance of the results files"):
+        assert heading in text
+    oracle = json.loads((ROOT / "results" / "myopic-oracle-two-room.json").read_text())["cost_per_task"]
+    assert f"| Myopic oracle | {oracle:,.1f}" in text
+    assert "| One-task GNN (augmented) | not run" in text and "--agent gnn-native" in text
+    for png in ("fig-5-1b-minimal-example.png", "fig-5-3-greedy-vs-guided.png", "fig-5-4-improvement.png"):
+        assert (tmp_path / "figures" / png).is_file() and f"(figures/{png})" in text
