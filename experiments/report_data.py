@@ -181,8 +181,9 @@ def load_run(run: Run, ctx: Context) -> Loaded:
             loaded.flags.append("provenance records no commit")
         elif not in_history(commit):
             loaded.flags.append(f"made at commit {commit[:10]}, which is not in this checkout's history")
-        if prov.get("uncommitted_code"):
-            loaded.flags.append(f"made with uncommitted changes to {', '.join(prov['uncommitted_code'][:4])}")
+        code = [f for f in prov.get("uncommitted_code") or [] if not f.startswith("tests/")]
+        if code:
+            loaded.flags.append(f"made with uncommitted changes to {', '.join(code[:4])}")
         if prov.get("checkpoint_sha256") and run.checkpoint and prov["checkpoint_sha256"] != sha256(run.checkpoint):
             loaded.status = "not used"
             loaded.note = f"made with another `{run.checkpoint}` (sha256 {prov['checkpoint_sha256'][:12]}…)"

@@ -132,7 +132,7 @@ def results_provenance(config: dict, played=()) -> dict:
         out["command"] = " ".join(["python", *sys.orig_argv[sys.orig_argv.index("-m"):]])
     try:
         changed = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", "*.py", "*.pddl",
-                                  "*.toml"], cwd=Path(__file__).resolve().parents[2], capture_output=True,
+                                  "*.toml", ":(exclude)tests"], cwd=Path(__file__).resolve().parents[2], capture_output=True,
                                  text=True, timeout=10).stdout.split("\n")
         out["uncommitted_code"] = sorted(line[3:] for line in changed if line.strip())
     except (OSError, subprocess.SubprocessError):
