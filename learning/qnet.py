@@ -161,7 +161,7 @@ class FactoredQNet(nn.Module):
         count (at least 1): what the advantages are centred over. It depends on validity only, so
         one call serves the online and the target network (`select` takes rows of it)."""
         m = (self.slot_act @ valid.to(torch.float32).T).clamp_(max=1.0)          # (slots, N)
-        m = m.view(self.n_inst, self.v_max, -1).transpose(1, 2)
+        m = m.view(self.n_inst, self.v_max, len(valid)).transpose(1, 2)
         return m, m.sum(-1, keepdim=True).clamp_(min=1.0)
 
     @staticmethod
@@ -182,13 +182,12 @@ class FactoredQNet(nn.Module):
         v = self.value(torch.relu(parts[:, :H]))                                       # (N, 1)
         N, L = parts.shape[0], self.lab_of_slot.shape[1]
         m, count = masks
-        act = ((count[:, :, 0] >= 2).any(1).nonzero()[:, 0] if N else count.new_zeros(0, dtype=torch.int64)
-               ) if self.n_inst else torch.zeros(0, dtype=torch.int64)
+        act = (count[:, :, 0] >= 2).any(1).nonzero()[:, 0]                           # instances in use
         if not len(act):
             return v.expand(-1, L)
         if len(act) < self.n_inst:
             m, count = m.index_select(0, act), count.index_select(0, act)
-        z = parts[:, H:].view(N, -1, H).transpose(0, 1).index_select(0, self.inst_head[act])   # state parts (K, N, H)
+        z = parts[:, H:].view(N, w // H - 1, H).transpose(0, 1).index_select(0, self.inst_head[act])   # (K, N, H)
         if self.prefix_mods:
             tabs = torch.cat([t.weight for t in self.prefix_mods])
             pref = F.embedding_bag(self.bag, tabs, self.bag_off, mode="sum").index_select(0, act)

@@ -531,7 +531,26 @@ def test_slot_cache_gives_the_same_targets_and_observations(two_room, enc):
             expect = td_targets(online, target, enc, b, 0.97, "anticipatory")
             torch.testing.assert_close(td_targets(online, target, enc, b, 0.97, "anticipatory", None, slots),
                                        expect, rtol=1e-5, atol=1e-4)
+            again = td_targets(online, target, enc, b, 0.97, "anticipatory", None, slots)   # all known: no target rows
+            torch.testing.assert_close(again, expect, rtol=1e-5, atol=1e-4)
             obs, valid = slots.observe(b)
             assert np.array_equal(obs, enc.observe(b["states"], b["tasks"]))
             assert np.array_equal(valid, enc.valid_for(b["states"], b["tasks"]))
     assert slots.known(b["slots"][b["kinds"] == CONTINUE]).all()
+
+
+def test_empty_batches_and_no_row_to_value(two_room, enc):
+    """No rows at all, and (with both caches warm) no row for the target network: the same targets."""
+    from learning.qnet import SlotCache
+    from learning.replay import Replay, mixed_batch
+    net = trained_like(enc, 9)
+    valid = torch.from_numpy(enc.valid_for(enc.pack(random_walk_states(two_room, 1, seed=2)), [0]))[:0]
+    assert net(torch.zeros(0, enc.obs_dim), valid).shape == (0, enc.n_actions)
+    memory = Replay(20, enc.n_words)
+    b = fixed_minibatch(two_room, enc, 20, seed=13)
+    for i in range(20):
+        memory.add(b["states"][i], b["tasks"][i], b["actions"][i], b["rewards"][i], b["next_states"][i], b["kinds"][i])
+    batch = mixed_batch(memory, Replay(1, enc.n_words), 20, 0.0, np.random.default_rng(3))
+    slots, cache = SlotCache(enc, 21), BoundaryCache()
+    first = td_targets(net, net, enc, batch, 0.9, "anticipatory", cache, slots)
+    torch.testing.assert_close(td_targets(net, net, enc, batch, 0.9, "anticipatory", cache, slots), first)
