@@ -144,6 +144,9 @@ class FactoredQNet(nn.Module):
             bag_off.append(len(bag))
             bag += [toff[(d, k)] + int(c) for k, c in enumerate(t.prefixes[d][p].tolist())]
         self.bag, self.bag_off = torch.tensor(bag, dtype=torch.int64), torch.tensor(bag_off, dtype=torch.int64)
+        self.bag_of = torch.zeros(I, sum(t.sizes[k] for _, k in tables))           # instance -> its prefix rows
+        for i, (lo, hi) in enumerate(zip(bag_off, bag_off[1:] + [len(bag)])):
+            self.bag_of[i, bag[lo:hi]] = 1.0
         # (instance, value) slots: which labels use them
         slot_lab = np.zeros((L, I * Vm), dtype=np.float32)
         where = {(d, p): i for i, (d, p, _) in enumerate(inst)}
@@ -252,11 +255,7 @@ class LiveGreedy:
         self.tabs = [view(t.weight) for t in net.prefix_mods]
         self.outs = [(view(o.weight), view(o.bias)) for o in net.out_mods]
         self.H, self.I, self.inst_head = H, net.n_inst, net.inst_head.numpy()
-        rows = sum(len(t) for t in self.tabs)
-        bag, off = net.bag.numpy(), np.append(net.bag_off.numpy(), len(net.bag))
-        self.bag_of = np.zeros((self.I, rows), dtype=np.float32)       # instance -> its prefix rows
-        for i in range(self.I):
-            self.bag_of[i, bag[off[i]:off[i + 1]]] = 1.0
+        self.bag_of = net.bag_of.numpy()                                 # instance -> its prefix rows
         self.out_col = net.out_col[:, 0].numpy()
         self.slot_act, self.lab_of_slot = net.slot_act.numpy(), net.lab_of_slot.numpy()
         self.lab_of_act = net.lab_of_act.numpy()

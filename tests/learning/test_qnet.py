@@ -464,9 +464,9 @@ def test_faster_update_gives_the_reference_targets_and_gradients(two_room, enc, 
 from pathlib import Path  # noqa: E402
 
 
-@pytest.mark.parametrize("path", sorted(str(p) for p in Path("checkpoints").glob("*.pt")))
+@pytest.mark.parametrize("path", sorted(str(p) for p in Path("checkpoints").glob("rl-*.pt")))
 def test_committed_checkpoints_act_as_before(path):
-    """Every committed checkpoint loads and its greedy actions on 50 states are the reference forward's,
+    """Every committed Q-network checkpoint loads and its greedy actions on 50 states are the reference forward's,
     through the training forward and through load_value_function."""
     from planning.domain.compiler import compile_domain
     layout = "three-room" if "three-room" in path else "two-room"
