@@ -183,6 +183,15 @@ def main() -> None:
         raise DomainError("--out", "an output folder is required")
     if args.epochs < 1:
         raise DomainError("--epochs", f"{args.epochs} is not a positive number of epochs")
+    if args.layout is not None:             # optional: checks the dataset is of this domain and layout
+        from planning.domain.compiler import compile_domain
+
+        model = compile_domain(args.domain, args.layout)
+        meta_path = Path(args.data) / "meta.json"
+        meta = json.loads(meta_path.read_text()) if meta_path.is_file() else {}
+        if meta and (meta.get("domain"), meta.get("layout")) != (model.name, model.layout):
+            raise DomainError(args.data, f"a dataset of {meta.get('domain')} {meta.get('layout')}, "
+                                         f"not {model.name} {model.layout}")
     cfg = TrainConfig(data=str(args.data), seed=args.seed, epochs=args.epochs, edge_features=args.edge_features)
     s = train(cfg, args.out, progress=not args.no_progress)
     print(f"seed {cfg.seed}: best validation L1 {s['best_val_l1']:.2f} (epoch {s['best_epoch']}), "

@@ -8,7 +8,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 # Entry points that need more than --layout to get as far as reading the domain.
 EXTRA = {"experiments.evaluate": ["--agent", "random"], "learning.dqn": ["--horizon", "myopic"],
-         "learning.gnn_dataset": ["--out", "unused"], "experiments.select_beta": ["--checkpoint", "unused.pt"]}
+         "learning.gnn_dataset": ["--out", "unused"], "experiments.select_beta": ["--checkpoint", "unused.pt"],
+         "learning.gnn_train": ["--data", "unused", "--out", "unused"]}
 
 
 def entry_points() -> list[str]:
