@@ -323,6 +323,9 @@ class Trainer:
         loss = F.smooth_l1_loss(q, y)
         self.opt.zero_grad(set_to_none=True)
         loss.backward()
+        for p in self.params:      # a parameter the loss did not reach steps with a zero gradient, as in the
+            if p.grad is None:     # per-head forward, where every head was in every loss (Adam's moments decay)
+                p.grad = torch.zeros_like(p)
         t1 = time.process_time()
         torch.nn.utils.clip_grad_norm_(self.params, self.cfg.grad_clip)
         self.opt.step()

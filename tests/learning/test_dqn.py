@@ -187,3 +187,18 @@ def test_checkpoint_round_trip_continues_identically(minimal, tmp_path):
     after = [r for r in rows(tmp_path / "a") if r.get("step", r.get("eval", {}).get("step")) > 200]
     assert after and json.dumps(after) == json.dumps(rows(tmp_path / "b"))
     assert a.step == b.step == 400 and a.world.state == b.world.state
+
+
+def test_every_parameter_steps_as_under_the_per_head_forward(minimal, tmp_path):
+    """The per-head forward put every head in every loss, so Adam stepped every parameter each update
+    (zero gradients included); the dense forward leaves unused heads out, and the trainer fills in zeros."""
+    import torch
+
+    t = Trainer(small_config(minimal, tmp_path, steps=0, demo_tasks=20, hidden=32), progress=False)
+    for _ in range(200):
+        t.env_step(1.0)
+    t.update()
+    assert all(p.grad is not None for p in t.net.parameters())
+    assert len(t.opt.state) == len(list(t.net.parameters()))
+    assert all(float(s["step"]) == 1.0 for s in t.opt.state.values())
+    assert torch.isfinite(torch.cat([p.detach().reshape(-1) for p in t.net.parameters()])).all()
