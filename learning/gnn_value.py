@@ -121,16 +121,8 @@ class GNNGuidedPlanner(ValueGuidedPlanner):
 
     @classmethod
     def options(cls, p) -> None:
-        from oracles.myopic import PLANNERS
-
         p.add_argument("--model", required=True, help="GNN checkpoint (learning.gnn_train's best.pt)")
-        p.add_argument("--beta", type=float, default=None, help="cost slack β ≥ 1 (default: domain.toml [search])")
-        p.add_argument("--budget", type=int, default=None, help="expansions per task (default: domain.toml [search])")
-        p.add_argument("--depth-cap", type=int, default=None, help="depth of open nodes (default: domain.toml [search])")
-        p.add_argument("--reference", default="internal", choices=PLANNERS,
-                       help="planner of the myopic reference plan (default: %(default)s, exact)")
-        p.add_argument("--time-limit", type=float, default=60.0,
-                       help="reference planner seconds per task (default: %(default)s)")
+        cls.search_options(p)
 
     @classmethod
     def from_args(cls, args, model) -> "GNNGuidedPlanner":

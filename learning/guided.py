@@ -45,6 +45,11 @@ class ValueGuidedPlanner(Planner):
     @classmethod
     def options(cls, p) -> None:
         p.add_argument("--checkpoint", required=True, help="Q-network checkpoint whose value guides the search")
+        cls.search_options(p)
+
+    @staticmethod
+    def search_options(p) -> None:
+        """The search's own flags, shared by every value-guided agent."""
         p.add_argument("--beta", type=float, default=None, help="cost slack β ≥ 1 (default: domain.toml [search])")
         p.add_argument("--budget", type=int, default=None, help="expansions per task (default: domain.toml [search])")
         p.add_argument("--depth-cap", type=int, default=None, help="depth of open nodes (default: domain.toml [search])")
