@@ -18,11 +18,10 @@ from __future__ import annotations
 import argparse
 import sys
 
-from oracles.myopic import reference_path
+from oracles.command import play, run_options
 from planning import cli
 from planning.domain.compiler import compile_domain
 from planning.parallel import one_thread
-from planning.world.runner import default_out, evaluate
 
 from .registry import AGENTS, agent_class, describe
 from .workers import Job, play_over_workers
@@ -41,8 +40,7 @@ def main() -> None:
     p.add_argument("--list-agents", action="store_true", help="print the registered agents and exit")
     p.add_argument("--workers", type=int, default=1, help="local processes, one sequence each at a time (default: 1, serial)")
     p.add_argument("--ray", action="store_true", help="sequences as Ray tasks: a local instance, or the cluster at RAY_ADDRESS")
-    p.add_argument("--force", action="store_true", help="replace a finished results file made otherwise")
-    p.add_argument("--strict", action="store_true", help="exit non-zero if any planner timed out or crashed")
+    run_options(p)
     cls = agent_class(known.agent) if known.agent else None
     if cls is not None:
         cls.options(p.add_argument_group(f"{known.agent} options"))
@@ -51,14 +49,12 @@ def main() -> None:
     ids = cli.parse_ids(args.sequences)
     model = compile_domain(args.domain, args.layout)
     agent = cls.from_args(args, model)
-    out = args.out or default_out(agent, model)
-    if hasattr(agent, "set_log"):
-        cli.check_writable(f"{out}.windows.jsonl")
-        agent.set_log(f"{out}.windows.jsonl")
-    if args.workers > 1 or args.ray:        # each sequence a work item; evaluate() below merges their rows
-        log = f"{out}.windows.jsonl" if hasattr(agent, "set_log") else None
-        play_over_workers([Job(known.agent, args, model, agent, ids, out, args.force, log)], args.workers, args.ray)
-    r = evaluate(model, agent, ids, out, reference=reference_path(model), force=args.force, strict=args.strict)
+
+    def over_workers(out, log):             # each sequence a work item; the run below merges their rows
+        if args.workers > 1 or args.ray:
+            play_over_workers([Job(known.agent, args, model, agent, ids, out, args.force, log)], args.workers, args.ray)
+
+    r, out = play(model, agent, ids, args, before=over_workers)
     print(f"{r['agent']} {r['layout']}: cost per task {r['cost_per_task']}, actions per task "
           f"{r['actions_per_task']}, success rate {r['success_rate']}, "
           f"improvement vs myopic {r['improvement_vs_myopic']}; wrote {out}", file=sys.stdout)

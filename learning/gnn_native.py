@@ -29,7 +29,8 @@ import numpy as np
 from planning.errors import DomainError
 from planning.world.agents import Planner, Reply
 
-from learning.gnn_value import GNNValue, gnn_run_name, model_summary
+from learning.gnn_value import GNNValue, model_summary
+from learning.greedy import checkpoint_run_name
 
 MAX_CLAUSES = 10
 
@@ -164,7 +165,7 @@ class GNNNativePlanner(Planner):
                        "clauses": len(self.library), "region": "myopic plan locations + one move",
                        "selection": "cost + C_AP estimate, lowest; the myopic plan unless strictly beaten",
                        "reference": self.reference.config}
-        self.run_name = gnn_run_name(self.name, gnn) + ("" if reference == "internal" else f"-{reference}")
+        self.run_name = checkpoint_run_name(self.name, gnn, "gnn-") + ("" if reference == "internal" else f"-{reference}")
         from planning.domain.batched import BatchedModel
         from planning.heuristics.hmax import HMax
 

@@ -29,6 +29,7 @@ from planning.errors import DomainError
 
 from learning.gnn_model import load_gnn
 from learning.guided import ValueGuidedPlanner
+from learning.reward import cost_scale
 
 
 def collate(arrays: list) -> tuple:
@@ -72,7 +73,7 @@ class GNNValue:
                                      f"have {self.encoder.num_features}")
         self.model = model
         self.gamma = float(gamma)
-        self.scale = float(scale if scale is not None else model.config.get("reward", {}).get("cost_scale", 1))
+        self.scale = float(scale if scale is not None else cost_scale(model))
         self.cache_size = cache_size
         self._cache: dict[int, float] = {}
         self.forward_calls = 0
@@ -96,7 +97,7 @@ class GNNValue:
         return -self.c_ap(states) / self.scale
 
     def q_max(self, states: list, task) -> np.ndarray:
-        return -self.c_ap(states) / self.scale
+        return self.v_ap(states)          # a one-task estimate: the same for every current task
 
 
 def model_summary(path) -> dict:
@@ -109,15 +110,11 @@ def model_summary(path) -> dict:
             "data": cfg.get("data"), "seed": cfg.get("seed"), "edge_features": cfg.get("edge_features")}
 
 
-def gnn_run_name(agent: str, path) -> str:
-    """gnn-native + checkpoints/gnn-augmented-three-room-seed0.pt -> gnn-native-augmented-three-room-seed0."""
-    return f"{agent}-{Path(path).stem.removeprefix('gnn-')}"
-
-
 class GNNGuidedPlanner(ValueGuidedPlanner):
     """The GNN's C_AP estimate as the value of the cost-bounded Bellman–Novelty search (Table 5.3)."""
 
     name = "gnn-guided"
+    checkpoint_prefix = "gnn-"
 
     @classmethod
     def options(cls, p) -> None:
@@ -132,7 +129,6 @@ class GNNGuidedPlanner(ValueGuidedPlanner):
                  value=None):
         value = value or GNNValue(gnn, model)
         super().__init__(model, str(gnn), beta, budget, depth_cap, reference, time_limit, value=value)
-        self.config = {**model_summary(gnn), "value": "-C_AP / cost_scale (learning.gnn_value)",
-                       **{k: v for k, v in self.config.items() if k != "value"}}
-        self.run_name = self.run_name.replace(f"{self.name}-{Path(gnn).stem.removeprefix('rl-')}",
-                                              gnn_run_name(self.name, gnn), 1)
+
+    def describe_value(self, checkpoint: str, value) -> dict:
+        return {**model_summary(checkpoint), "value": "-C_AP / cost_scale (learning.gnn_value)"}

@@ -18,10 +18,10 @@ def checkpoint_config(path) -> dict:
             **{k: cfg[k] for k in ("horizon", "seed", "gamma", "goal_reward") if k in cfg}}
 
 
-def checkpoint_run_name(agent: str, checkpoint) -> str:
+def checkpoint_run_name(agent: str, checkpoint, prefix: str = "rl-") -> str:
     """A default results name that names the checkpoint: rl-greedy + rl-anticipatory-two-room-seed0.pt ->
-    rl-greedy-anticipatory-two-room-seed0."""
-    return f"{agent}-{Path(checkpoint).stem.removeprefix('rl-')}"
+    rl-greedy-anticipatory-two-room-seed0 (the checkpoint's own `prefix` dropped)."""
+    return f"{agent}-{Path(checkpoint).stem.removeprefix(prefix)}"
 
 
 class GreedyValuePolicy(Policy):

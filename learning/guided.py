@@ -40,6 +40,7 @@ class ValueGuidedPlanner(Planner):
     """A value checkpoint deployed through the cost-bounded Bellman–Novelty search."""
 
     name = "rl-guided"
+    checkpoint_prefix = "rl-"         # dropped from the checkpoint's name in the default results name
     keys = ("c_myo", "terminals", "eligible", "expansions", "source", "v_ap", "cost", "depth")
 
     @classmethod
@@ -75,15 +76,19 @@ class ValueGuidedPlanner(Planner):
             raise DomainError("--budget", f"budget {self.budget} and depth cap {self.depth_cap} must be positive")
         self.model, self.checkpoint, self.value = model, str(checkpoint), value
         self.reference = MyopicOracle(reference, time_limit)
-        self.config = {**(checkpoint_config(self.checkpoint) if value is None else {"value": self.checkpoint}),
+        self.config = {**self.describe_value(self.checkpoint, value),
                        "beta": self.beta, "budget": self.budget, "depth_cap": self.depth_cap,
                        "reference": {**self.reference.config,
                                      "note": "exact optimal: C_myo is the true myopic cost (the authors' was LAMA)"
                                      if reference == "internal" else "Fast Downward blind A*, optimal within its time limit"}}
-        name = checkpoint_run_name(self.name, self.checkpoint)
+        name = checkpoint_run_name(self.name, self.checkpoint, self.checkpoint_prefix)
         if (self.beta, self.budget, self.depth_cap) != (d.get("beta"), d.get("budget"), d.get("depth_cap")):
             name += f"-beta{self.beta:g}-budget{self.budget}-depth{self.depth_cap}"
         self.run_name = name if reference == "internal" else f"{name}-{reference}"
+
+    def describe_value(self, checkpoint: str, value) -> dict:
+        """What the results config records of the value: the Q-network checkpoint's settings, or its name."""
+        return checkpoint_config(checkpoint) if value is None else {"value": checkpoint}
 
     def start(self, model, sequence) -> None:
         if model is not self.model:

@@ -21,7 +21,7 @@ def step_reward(cost: float, completed: bool, scale: float, r_goal: float) -> fl
 
 def cost_scale(model) -> float:
     """PDDL cost units per RL reward unit (domain.toml [reward] cost_scale, default 1)."""
-    return float(model.config.get("reward", {}).get("cost_scale", 1))
+    return model.cost_scale
 
 
 def calibration_path(model, results_dir="results") -> Path:

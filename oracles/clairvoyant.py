@@ -22,7 +22,8 @@ import statistics
 import time
 from pathlib import Path
 
-from oracles.myopic import MyopicOracle, reference_path
+from oracles.command import play, run_options
+from oracles.myopic import MyopicOracle
 from planning import cli
 from planning.errors import DomainError
 from planning.heuristics import names
@@ -31,7 +32,7 @@ from planning.domain.compiler import compile_domain
 from planning.search.joint import JointSearch
 from planning.search.optimal import optimal_plan
 from planning.world.agents import Planner, Reply
-from planning.world.runner import default_out, evaluate, play_task
+from planning.world.runner import play_task
 from planning.world.task_stream import PersistentWorld
 
 
@@ -144,16 +145,11 @@ def proven_optimal(window: dict) -> bool:
 def main() -> None:
     p = cli.parser(__doc__.splitlines()[0], sequences=True)
     ClairvoyantOracle.options(p)
-    p.add_argument("--force", action="store_true", help="replace a finished results file made otherwise")
-    p.add_argument("--strict", action="store_true", help="exit non-zero if any planner timed out or crashed")
+    run_options(p)
     args = p.parse_args()
     ids = cli.parse_ids(args.sequences)
     model = compile_domain(args.domain, args.layout)
-    agent = ClairvoyantOracle.from_args(args, model)
-    out = args.out or default_out(agent, model)
-    cli.check_writable(f"{out}.windows.jsonl")
-    agent.set_log(f"{out}.windows.jsonl")
-    r = evaluate(model, agent, ids, out, reference=reference_path(model), force=args.force, strict=args.strict)
+    r, out = play(model, ClairvoyantOracle.from_args(args, model), ids, args)
     print(f"\nclairvoyant K={args.K}, {model.name} {model.layout}, sequences {args.sequences}")
     print(f"cost per task {r['cost_per_task']}, improvement vs myopic {r['improvement_vs_myopic']}, "
           f"share optimal {r['share_optimal']}, window seconds median {r['median_window_seconds']} "

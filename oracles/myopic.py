@@ -20,7 +20,7 @@ from planning.domain.compiler import compile_domain
 from planning.search.optimal import optimal_plan
 from planning.errors import DomainError
 from planning.world.agents import PlanFunction, Planner, Reply
-from planning.world.runner import default_out, evaluate, play_task
+from planning.world.runner import play_task
 from planning.world.task_stream import PersistentWorld, TaskStream
 
 REFERENCE = "results/myopic-oracle-{layout}.json"
@@ -137,16 +137,15 @@ def type_table(result: dict) -> str:
 
 
 def main() -> None:
+    from oracles.command import play, run_options
+
     p = cli.parser(__doc__.splitlines()[0], sequences=True)
     MyopicOracle.options(p)
-    p.add_argument("--force", action="store_true", help="replace a finished results file made otherwise")
-    p.add_argument("--strict", action="store_true", help="exit non-zero if any planner timed out or crashed")
+    run_options(p)
     args = p.parse_args()
     ids = cli.parse_ids(args.sequences)
     model = compile_domain(args.domain, args.layout)
-    agent = MyopicOracle.from_args(args, model)
-    out = args.out or default_out(agent, model)
-    r = evaluate(model, agent, ids, out, reference=reference_path(model), force=args.force, strict=args.strict)
+    r, out = play(model, MyopicOracle.from_args(args, model), ids, args)
     print(f"\nmyopic oracle ({args.planner}), {model.name} {model.layout}, sequences {args.sequences}: "
           f"{r['tasks']} tasks in {r['wall_seconds']}s")
     print(type_table(r))

@@ -81,6 +81,11 @@ class Model:
 
     # ---- sizes and names -------------------------------------------------
     @property
+    def cost_scale(self) -> float:
+        """PDDL cost units per RL reward unit (domain.toml [reward] cost_scale, default 1)."""
+        return float(self.config.get("reward", {}).get("cost_scale", 1))
+
+    @property
     def n_atoms(self) -> int:
         return len(self.atoms)
 

@@ -174,7 +174,7 @@ def bellman_novelty_search(model, state: int, task, value, *, budget: int, beta:
         if gamma is None:
             raise ValueError("the value has no gamma; pass gamma= to the search")
     if scale is None:
-        scale = float(getattr(model, "config", {}).get("reward", {}).get("cost_scale", 1))
+        scale = float(getattr(model, "cost_scale", 1))      # a stand-in model without one: PDDL units
     if beta < 1:
         raise ValueError(f"beta must be at least 1 (got {beta}): the reference must stay eligible")
     stats = BNStats()

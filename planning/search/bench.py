@@ -26,8 +26,12 @@ def planner_pairs(model, sequence_id: int, n: int) -> list:
     seq = load(model, [sequence_id])[0]
     bm = BatchedModel(model)
     pairs = []
-    planner = PlanFunction(lambda state, task: (pairs.append((state, task)),
-                                                Reply(optimal_plan(bm, state, task).plan))[1])
+
+    def plan(state, task):
+        pairs.append((state, task))
+        return Reply(optimal_plan(bm, state, task).plan)
+
+    planner = PlanFunction(plan)
     world = PersistentWorld(model, seq.reset_seed)
     for task in seq.tasks:
         if len(pairs) >= n:
