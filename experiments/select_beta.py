@@ -23,7 +23,7 @@ from planning import cli
 from planning.atomic import write_json
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
-from planning.world.runner import evaluate, improvement
+from planning.world.runner import evaluate, improvement, results_provenance
 from planning.world.sequences import COUNT, DEVELOPMENT
 
 THESIS_BETAS = (1.25, 3.0, 6.0, 8.0)
@@ -80,7 +80,7 @@ def main() -> None:
                            "improvement_vs_myopic": r["improvement_vs_myopic"], "splits": split_costs(model, r)}
         for split, s in result["final"]["splits"].items():
             print(f"{split:12s} cost per task {s['cost_per_task']}, improvement vs myopic {s['improvement_vs_myopic']}")
-    write_json(out, result)
+    write_json(out, {**result, "provenance": results_provenance({"checkpoint": args.checkpoint})})
     print(f"wrote {out}")
 
 

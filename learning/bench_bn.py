@@ -23,6 +23,7 @@ import numpy as np
 from learning.qnet import load_value_function
 from planning import cli
 from planning.atomic import write_json
+from planning.world.runner import results_provenance
 from planning.domain.batched import BatchedModel
 from planning.domain.compiler import compile_domain
 from learning.guided import search_defaults
@@ -114,8 +115,9 @@ def main() -> None:
           f"heaps and bookkeeping {sh['rest']:.0%}; {r['value_calls_per_task']:.0f} value calls and "
           f"{r['value_states_per_task']:.0f} states valued per task")
     if args.out:
-        write_json(args.out, {"layout": model.layout, "checkpoint": args.checkpoint, "budget": budget,
-                              "beta": beta, "depth_cap": args.depth_cap, "prefetch": args.prefetch, **r})
+        config = {"layout": model.layout, "checkpoint": args.checkpoint, "budget": budget,
+                  "beta": beta, "depth_cap": args.depth_cap, "prefetch": args.prefetch}
+        write_json(args.out, {**config, **r, "provenance": results_provenance(config)})
         print(f"wrote {args.out}")
 
 
