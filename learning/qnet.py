@@ -824,7 +824,11 @@ def read_checkpoint(path) -> dict:
     payload = load_plain(path, "checkpoint")
     if not isinstance(payload, dict) or "net" not in payload or "dims" not in payload:
         raise DomainError(path, "not a Q-network checkpoint (no 'net' or 'dims')")
-    return from_plain(payload)
+    payload = from_plain(payload)
+    if payload.get("precision") == "float16":      # a compact checkpoint (learning.export): float32 again
+        payload["net"] = type(payload["net"])((k, v.float() if v.is_floating_point() else v)
+                                              for k, v in payload["net"].items())
+    return payload
 
 
 def network_payload(net: FactoredQNet, enc: Encoding, extra: dict | None = None) -> dict:

@@ -554,3 +554,36 @@ def test_empty_batches_and_no_row_to_value(two_room, enc):
     slots, cache = SlotCache(enc, 21), BoundaryCache()
     first = td_targets(net, net, enc, batch, 0.9, "anticipatory", cache, slots)
     torch.testing.assert_close(td_targets(net, net, enc, batch, 0.9, "anticipatory", cache, slots), first)
+
+
+def test_compact_checkpoint_acts_as_the_full_one(three_room, tmp_path):
+    """learning.export's float16 checkpoint: about half the bytes, loaded safely, the same greedy actions."""
+    from learning.export import compact
+    from learning.qnet import read_checkpoint, save_checkpoint
+    full = "checkpoints/rl-anticipatory-three-room-seed0.pt"
+    small = save_checkpoint(tmp_path / "small.pt", compact(read_checkpoint(full)))
+    assert small.stat().st_size < 0.55 * Path(full).stat().st_size
+    payload = read_checkpoint(small)
+    assert payload["precision"] == "float16" and all(v.dtype != torch.float16 for v in payload["net"].values())
+    a, b = load_value_function(full, three_room), load_value_function(small, three_room)
+    states = random_walk_states(three_room, 300, seed=5)
+    tasks = np.random.default_rng(1).integers(len(three_room.tasks), size=len(states))
+    greedy = lambda vf: [int(vf.greedy([s], int(t))[0]) for s, t in zip(states, tasks)]
+    assert greedy(a) == greedy(b)
+    np.testing.assert_allclose(b.v_ap(states[:20]), a.v_ap(states[:20]), rtol=2e-3)
+
+
+def test_key_figures_of_a_run():
+    """Milestones take the last row at or before them; the wall time sums each window's steps over its rate."""
+    from learning.export import key_figures
+    logs = [{"step": s, "success_rate": s / 600_000, "selected_q": 10.0 + s / 1e4, "td_target": 9.0,
+             "action_share": {"refill-water": 0.01}, "steps_per_s": 100.0} for s in range(25_000, 275_000, 25_000)]
+    logs[3]["selected_q"] = -900.0
+    evals = [{"step": 50_000, "success_rate": 0.5, "task_return": 1.0, "demo_q_bias": 0.25},
+             {"step": 200_000, "success_rate": 0.9, "task_return": 2.0}]
+    f = key_figures(logs, evals)
+    assert set(f["at"]) == {"50000", "100000", "250000"}
+    assert f["at"]["250000"]["step"] == 250_000 and f["at"]["100000"]["greedy"]["demo_q_bias"] == 0.25
+    assert f["best_greedy"]["step"] == 200_000
+    assert f["peak_selected_q"] == {"step": 100_000, "selected_q": -900.0}
+    assert f["train_hours"] == round(250_000 / 100 / 3600, 3)

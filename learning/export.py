@@ -1,0 +1,146 @@
+"""A finished training run, made small enough to commit: its compact checkpoint and its key figures.
+
+    python -m learning.export runs/dqn/restaurant-three-room-anticipatory-seed0 \
+        [--out checkpoints/rl-anticipatory-three-room-seed0.pt] [--figures results/training-anticipatory-three-room-seed0.json]
+
+- The compact checkpoint is the run's best.pt (the network the trainer's greedy
+  evaluation selected) with its weights in float16: half the bytes, loaded safely
+  (weights_only) by every agent and cast back to float32 there. It keeps the run's
+  step, evaluation, training settings and the sha256 of the best.pt it came from.
+- The key figures are what Appendix A.2 reports of a run, read from its
+  metrics.jsonl: at 50k, 100k, 250k and 500k steps (or the nearest logged step
+  before), the success rate over the last 100 training tasks, the selected Q, the
+  TD target and the share of refill-water actions in the last log window; the
+  greedy evaluations (and, for a myopic run, demo_q_bias: Q above the myopic
+  oracle's return on the demonstrations, the divergence alarm); the largest selected
+  Q of the run and where; the wall time of the training loop (the sum of each
+  log window's steps over its measured rate).
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+from pathlib import Path
+
+import torch
+
+from planning import cli
+from planning.atomic import write_json
+from planning.errors import DomainError
+
+from learning.qnet import read_checkpoint, save_checkpoint
+
+MILESTONES = (50_000, 100_000, 250_000, 500_000)
+PRECISION = "float16"
+
+
+def compact(payload: dict, source: str | None = None) -> dict:
+    """The agent-facing part of a checkpoint, float tensors in float16 (`read_checkpoint` casts them back)."""
+    net = {k: v.to(torch.float16) if v.is_floating_point() else v for k, v in payload["net"].items()}
+    keep = {k: payload[k] for k in ("dims", "signature", "step", "eval", "config") if k in payload}
+    return {**keep, "net": net, "precision": PRECISION, **({"source_sha256": source} if source else {})}
+
+
+def read_metrics(path: Path) -> tuple[list[dict], list[dict]]:
+    """(log rows, evaluation rows) of a metrics.jsonl; a torn last line is dropped."""
+    logs, evals = [], []
+    try:
+        lines = path.read_text().splitlines()
+    except OSError as e:
+        raise DomainError(path, f"cannot read the run's metrics ({e.strerror})") from None
+    for i, line in enumerate(lines):
+        try:
+            row = json.loads(line)
+        except json.JSONDecodeError:
+            if i == len(lines) - 1:
+                break
+            raise DomainError(path, f"line {i + 1} is not JSON") from None
+        (evals.append(row["eval"]) if "eval" in row else logs.append(row)) if isinstance(row, dict) else None
+    return logs, evals
+
+
+def key_figures(logs: list[dict], evals: list[dict], refill: str = "refill-water") -> dict:
+    """What Appendix A.2 reports of a run (see the module's docstring)."""
+    if not logs:
+        return {"steps": 0}
+    last = logs[-1]["step"]
+    at = {}
+    for m in MILESTONES:
+        if m > last:
+            continue
+        row = max((r for r in logs if r["step"] <= m), key=lambda r: r["step"])
+        ev = [e for e in evals if e["step"] <= m]
+        at[str(m)] = {"step": row["step"], "success_last_100": row["success_rate"],
+                      "selected_q": round(row["selected_q"], 3), "td_target": round(row["td_target"], 3),
+                      "refill_share": row.get("action_share", {}).get(refill),
+                      **({"greedy": _eval(ev[-1])} if ev else {})}
+    peak = max(logs, key=lambda r: abs(r["selected_q"]) if r["selected_q"] == r["selected_q"] else 0.0)
+    best = max(evals, key=lambda e: (e["success_rate"], e["task_return"])) if evals else None
+    seconds, prev = 0.0, 0
+    for r in logs:                       # each row's rate is measured over the steps since the row before
+        if r.get("steps_per_s"):
+            seconds += (r["step"] - prev) / r["steps_per_s"]
+        prev = r["step"]
+    return {"steps": last, "at": at, "best_greedy": _eval(best) if best else None,
+            "peak_selected_q": {"step": peak["step"], "selected_q": round(peak["selected_q"], 3)},
+            "train_hours": round(seconds / 3600, 3),
+            "steps_per_s_median": _median([r["steps_per_s"] for r in logs if r.get("steps_per_s")])}
+
+
+def _eval(e: dict) -> dict:
+    keys = ("step", "success_rate", "cost_per_task", "task_return", "demo_q_bias")
+    return {k: (round(e[k], 4) if isinstance(e[k], float) else e[k]) for k in keys if k in e}
+
+
+def _median(xs: list) -> float | None:
+    xs = sorted(xs)
+    return round(xs[len(xs) // 2], 2) if xs else None
+
+
+def sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def export(run: Path, out: Path, figures: Path | None) -> tuple[dict, dict]:
+    """Write the compact checkpoint (and the key figures); returns (compact payload, figures)."""
+    best = run / "best.pt"
+    payload = read_checkpoint(best)
+    small = compact(payload, sha256(best))
+    save_checkpoint(out, small)
+    logs, evals = read_metrics(run / "metrics.jsonl")
+    cfg = payload.get("config", {})
+    figs = {"run": str(run), "checkpoint": str(out), "checkpoint_step": payload.get("step"),
+            **{k: cfg.get(k) for k in ("domain", "layout", "horizon", "seed", "steps", "gamma")},
+            **key_figures(logs, evals)}
+    if figures is not None:
+        write_json(figures, figs)
+    return small, figs
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("run", help="a learning.dqn run folder (best.pt, metrics.jsonl)")
+    p.add_argument("--out", help="compact checkpoint (default: checkpoints/rl-<horizon>-<layout>-seed<N>.pt)")
+    p.add_argument("--figures", help="key figures JSON (default: results/training-<horizon>-<layout>-seed<N>.json)")
+
+    def run():
+        args = p.parse_args()
+        folder = Path(args.run)
+        cfg = read_checkpoint(folder / "best.pt").get("config", {})
+        name = f"{cfg.get('horizon')}-{cfg.get('layout')}-seed{cfg.get('seed')}"
+        out = Path(args.out or f"checkpoints/rl-{name}.pt")
+        figures = Path(args.figures or f"results/training-{name}.json")
+        cli.check_writable(out)
+        cli.check_writable(figures)
+        small, figs = export(folder, out, figures)
+        at = figs.get("at", {})
+        print(f"wrote {out} ({out.stat().st_size / 1e3:.0f} KB, {PRECISION}, step {small.get('step')}) "
+              f"and {figures}: {figs['steps']:,} steps in {figs['train_hours']} h; success (last 100) "
+              + ", ".join(f"{int(k) // 1000}k {v['success_last_100']:.2f}" for k, v in at.items()))
+
+    cli.run(run)
+
+
+if __name__ == "__main__":
+    main()
