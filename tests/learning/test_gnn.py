@@ -166,3 +166,14 @@ def test_candidate_region_is_the_myopic_path_plus_one_move(two_room):
     here = r.agent_at(two_room.init)
     assert r.around([two_room.init]) == {here} | r.moves[here]
     assert here not in r.moves[here]
+
+
+def test_gnn_bench_scores_the_validation_split(minimal, encoder, dataset, tmp_path):
+    """learning.gnn_bench: its MAE is the trainer's validation L1, its exact reference re-derives the labels."""
+    from learning.gnn_bench import bench, pair_agreement
+    assert pair_agreement(np.array([1.0, 2.0, 3.0]), np.array([10.0, 30.0, 20.0])) == pytest.approx(2 / 3)
+    s = train(TrainConfig(data=str(dataset), seed=0, epochs=2), tmp_path, progress=False)
+    r = bench(str(tmp_path / "best.pt"), str(dataset), "domains/minimal", batch=6, repeats=2, n_exact=5, encoder=encoder)
+    assert r["validation"]["mae"] == pytest.approx(s["best_val_l1"], abs=0.01)
+    assert r["inference"]["batch"] == 6 and r["exact"]["states"] == 5
+    assert -1.0 <= r["validation"]["spearman"] <= 1.0
