@@ -198,24 +198,71 @@ def benchmarks() -> list[str]:
     out += ["", "`python -m oracles.labelling_bench --layout three-room --states 20 [--heuristic pdb,lmcut] "
                 "[--no-fast-downward]`."]
     out += ["", "### Trainer", ""]
-    d = read("results/dqn-bench-two-room.json")
-    if d is None:
-        out += missing("results/dqn-bench-two-room.json", "python -m learning.bench --layout two-room")
-    else:
-        body = []
+    body, notes = [], []
+    for layout in LAYOUTS:
+        d = read(f"results/dqn-bench-{layout}.json")
+        if d is None:
+            notes += missing(f"results/dqn-bench-{layout}.json", f"python -m learning.bench --layout {layout}")
+            continue
         for h in ("myopic", "anticipatory"):
             for regime in ("early", "competent"):
                 r = d[h][regime]
-                body.append([h, num(d[h]["env_steps_per_s"]) if regime == "early" else "", regime,
-                             num(r["updates_per_s"], 2), num(r["update_ms"]),
-                             pct(r.get("boundary_share"), 1, False) if "boundary_share" in r else "",
-                             f"{r['updates_per_s_uncached']}, {pct(r['boundary_share_uncached'], 1, False)}"
-                             if "updates_per_s_uncached" in r else ""])
-        out += table(["horizon", "acting steps/s", "regime", "updates/s", "ms/update", "boundary share",
-                      "uncached: updates/s, boundary share"], body)
-        out += ["", f"`results/dqn-bench-two-room.json` (`python -m learning.bench --layout two-room --steps "
-                    f"{d['steps']} --updates {d['updates']}`), {d['threads']} thread; machine {d.get('machine', '—')}."]
+                body.append([layout, h, regime, num(d[h].get(f"train_steps_per_s_{regime}")), num(r["updates_per_s"], 1),
+                             num(r["update_ms"], 2), " / ".join(f"{k} {v}" for k, v in r.get("parts_ms", {}).items()),
+                             pct(r.get("boundary_share"), 0, False) if "boundary_share" in r else ""])
+        notes += ["", f"`results/dqn-bench-{layout}.json` (`python -m learning.bench --layout {layout} --steps "
+                          f"{d['steps']} --updates {d['updates']}`), {d['threads']} thread, CPU time; machine "
+                          f"{d.get('machine', '—')}."]
+    out += table(["layout", "horizon", "regime", "training steps/s", "updates/s", "ms/update", "parts (ms)",
+                  "boundary share"], body) if body else []
+    out += ["", "A training step is one ε = 0.05 acting step and one update of batch 128 (the thesis's ratio); "
+                "the target is 140 steps/s, a 500k-step run in an hour."] + notes
+    out += ["", "### GNN estimator", ""]
+    body = []
+    for path in sorted(Path("results").glob("bench-gnn-*.json")):
+        d = read(path)
+        if d is None:
+            continue
+        v, i, e = d["validation"], d["inference"], d["exact"]
+        body.append([f"`{path.name}`", d["layout"], v["states"], num(v["mae"], 1), num(v["exact_mean"], 0),
+                     num(v["spearman"], 3), pct(v["pair_agreement"], 1, False), num(i["c_ap_ms"], 1),
+                     f"{num(i['encode_ms'], 1)} / {num(i['forward_ms'], 1)}", num(e["per_state_ms"], 0),
+                     f"{e['ratio_to_gnn']}x"])
+    out += table(["results file", "layout", "validation states", "MAE", "mean C_AP", "Spearman", "pairs ordered right",
+                  "batch of 50, ms", "encode / forward ms", "exact C_AP ms/state", "exact / GNN per state"], body)
+    out += ["", "`python -m learning.gnn_bench --model checkpoints/gnn-<variant>-<layout>-seed<N>.pt --data "
+                "runs/gnn/<layout>-<variant>`: the model on its own run's validation split; the exact C_AP is the "
+                "labelling oracle's."]
     return out
+
+
+def training_runs() -> list[str]:
+    """Appendix A.2's figures of each run (`results/training-*.json`, written by learning.export)."""
+    body = []
+    for path in sorted(Path("results").glob("training-*.json")):
+        d = read(path)
+        if d is None:
+            continue
+        at = d.get("at", {})
+        cell = lambda m, k, digits=2: num(at[m][k], digits) if m in at and at[m].get(k) is not None else "—"
+        best = d.get("best_greedy") or {}
+        body.append([f"`{path.name}`", d.get("layout"), d.get("horizon"), d.get("seed"), f"{d.get('steps', 0):,}",
+                     " / ".join(cell(m, "success_last_100") for m in ("50000", "100000", "250000", "500000")),
+                     cell(str(max(map(int, at), default=0)), "selected_q", 1),
+                     cell(str(max(map(int, at), default=0)), "td_target", 1),
+                     cell(str(max(map(int, at), default=0)), "refill_share", 4),
+                     f"{num(best.get('success_rate'), 2)} at {best.get('step', 0):,}",
+                     num(best.get("demo_q_bias"), 2) if "demo_q_bias" in best else "",
+                     num(d["peak_selected_q"]["selected_q"], 1), num(d.get("train_hours"), 2),
+                     num(d.get("steps_per_s_median"), 0)])
+    if not body:
+        return ["No finished run exported yet: `python -m learning.export runs/dqn/<run>` writes "
+                "`results/training-<horizon>-<layout>-seed<N>.json` and the compact checkpoint."]
+    return table(["results file", "layout", "horizon", "seed", "steps", "success (last 100) at 50k / 100k / 250k / 500k",
+                  "selected Q", "TD target", "refill share", "best greedy check", "demo_q_bias", "peak selected Q",
+                  "hours", "steps/s (median)"], body) + [
+        "", "Selected Q, TD target and the share of refill-water actions are the last log window's (1,000 steps). "
+            "`python -m learning.export runs/dqn/<run>` writes each file with the run's compact checkpoint."]
 
 
 def everything(layouts=LAYOUTS, checkpoint_paths=(), sha=None) -> dict[str, list[str]]:
@@ -223,6 +270,7 @@ def everything(layouts=LAYOUTS, checkpoint_paths=(), sha=None) -> dict[str, list
     return {"Myopic oracle: the two planners": oracle_planners(layouts),
             "Clairvoyant-K oracle: windows": clairvoyant_windows(layouts),
             "Checkpoints": checkpoints(list(checkpoint_paths), sha),
+            "Training runs (Appendix A.2)": training_runs(),
             "Minimal example (thesis §5.1)": minimal_example(),
             "Reward calibration (thesis §5.2.4)": calibration(layouts),
             "β selection (Appendix A.1)": beta_selection(layouts),
