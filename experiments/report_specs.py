@@ -140,7 +140,7 @@ def rl_run_dir(horizon: str, layout: str, seed: int, gamma: float | None = None)
 def rl_train(horizon: str, layout: str, seed: int) -> str:
     run = rl_run_dir(horizon, layout, seed)
     return (f"python -m learning.dqn --layout {layout} --horizon {horizon} --seed {seed} && "
-            f"cp {run}/best.pt {rl_checkpoint(horizon, layout, seed)}")
+            f"python -m learning.export {run}")
 
 
 def gnn_model(variant: str, layout: str, seed: int) -> str:
