@@ -1,20 +1,24 @@
 """A finished training run, made small enough to commit: its compact checkpoint and its key figures.
 
-    python -m learning.export runs/dqn/restaurant-three-room-anticipatory-seed0 \
-        [--out checkpoints/rl-anticipatory-three-room-seed0.pt] [--figures results/training-anticipatory-three-room-seed0.json]
+    python -m learning.export runs/dqn/restaurant-three-room-anticipatory-seed0   # a learning.dqn run
+    python -m learning.export runs/gnn/three-room-faithful-seed0                  # a learning.gnn_train run
+        [--out CHECKPOINT] [--figures JSON]
 
-- The compact checkpoint is the run's best.pt (the network the trainer's greedy
-  evaluation selected) with its weights in float16: half the bytes, loaded safely
-  (weights_only) by every agent and cast back to float32 there. It keeps the run's
-  step, evaluation, training settings and the sha256 of the best.pt it came from.
-- The key figures are what Appendix A.2 reports of a run, read from its
-  metrics.jsonl: at 50k, 100k, 250k and 500k steps (or the nearest logged step
-  before), the success rate over the last 100 training tasks, the selected Q, the
-  TD target and the share of refill-water actions in the last log window; the
+- The compact checkpoint is the run's best.pt (the network the run selected: the
+  best greedy evaluation, the lowest validation L1) with its weights in float16:
+  half the bytes, loaded safely (weights_only) by every agent and cast back to
+  float32 there. It keeps the run's step or epoch, evaluation, settings and the
+  sha256 of the best.pt it came from. Default: checkpoints/rl-<horizon>-<layout>-seed<N>.pt,
+  checkpoints/gnn-<faithful|augmented>-<layout>-seed<N>.pt.
+- The key figures of a Q-learning run are what Appendix A.2 reports of it, read
+  from its metrics.jsonl: at 50k, 100k, 250k and 500k steps (or the nearest logged
+  step before), the success rate over the last 100 training tasks, the selected Q,
+  the TD target and the share of refill-water actions in the last log window; the
   greedy evaluations (and, for a myopic run, demo_q_bias: Q above the myopic
   oracle's return on the demonstrations, the divergence alarm); the largest selected
   Q of the run and where; the wall time of the training loop (the sum of each
-  log window's steps over its measured rate).
+  log window's steps over its measured rate). A GNN run's are its summary.json
+  (validation L1, best epoch, seconds per epoch). Default: results/training-<name>.json.
 """
 from __future__ import annotations
 
@@ -23,12 +27,12 @@ import hashlib
 import json
 from pathlib import Path
 
-import torch
 
 from planning import cli
 from planning.atomic import write_json
 from planning.errors import DomainError
 
+from learning.plain import load_plain, to_half
 from learning.qnet import read_checkpoint, save_checkpoint
 
 MILESTONES = (50_000, 100_000, 250_000, 500_000)
@@ -36,10 +40,15 @@ PRECISION = "float16"
 
 
 def compact(payload: dict, source: str | None = None) -> dict:
-    """The agent-facing part of a checkpoint, float tensors in float16 (`read_checkpoint` casts them back)."""
-    net = {k: v.to(torch.float16) if v.is_floating_point() else v for k, v in payload["net"].items()}
+    """The agent-facing part of a Q-network checkpoint, float tensors in float16 (`read_checkpoint` casts them back)."""
     keep = {k: payload[k] for k in ("dims", "signature", "step", "eval", "config") if k in payload}
-    return {**keep, "net": net, "precision": PRECISION, **({"source_sha256": source} if source else {})}
+    return {**keep, "net": to_half(payload["net"]), "precision": PRECISION, **({"source_sha256": source} if source else {})}
+
+
+def compact_gnn(payload: dict, source: str | None = None) -> dict:
+    """A GNN checkpoint with its weights in float16 (`read_gnn_checkpoint` casts them back)."""
+    return {**payload, "model": to_half(payload["model"]), "precision": PRECISION,
+            **({"source_sha256": source} if source else {})}
 
 
 def read_metrics(path: Path) -> tuple[list[dict], list[dict]]:
@@ -102,6 +111,50 @@ def sha256(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
+def is_gnn_run(run: Path) -> bool:
+    """True for a learning.gnn_train run folder, False for a learning.dqn one (by its best.pt)."""
+    from learning.gnn_model import KIND
+
+    payload = load_plain(run / "best.pt", "checkpoint")
+    return isinstance(payload, dict) and payload.get("kind") == KIND
+
+
+def default_names(run: Path) -> tuple[str, str]:
+    """(checkpoint, figures) default paths of a run folder."""
+    if is_gnn_run(run):
+        from learning.gnn_model import read_gnn_checkpoint
+
+        p = read_gnn_checkpoint(run / "best.pt")
+        cfg = p.get("config", {})
+        try:
+            augmented = json.loads((Path(cfg.get("data", "")) / "meta.json").read_text())["config"]["augmented"]
+        except (OSError, KeyError, TypeError, json.JSONDecodeError):
+            raise DomainError(run, f"cannot tell the dataset variant from {cfg.get('data')}/meta.json; "
+                                   "pass --out and --figures") from None
+        name = f"gnn-{'augmented' if augmented else 'faithful'}-{p.get('layout')}-seed{cfg.get('seed')}"
+        return f"checkpoints/{name}.pt", f"results/training-{name}.json"
+    cfg = read_checkpoint(run / "best.pt").get("config", {})
+    name = f"{cfg.get('horizon')}-{cfg.get('layout')}-seed{cfg.get('seed')}"
+    return f"checkpoints/rl-{name}.pt", f"results/training-{name}.json"
+
+
+def export_gnn(run: Path, out: Path, figures: Path | None) -> tuple[dict, dict]:
+    """The compact GNN checkpoint and the run's summary.json (with where it came from)."""
+    from learning.gnn_model import read_gnn_checkpoint, save_gnn_checkpoint
+
+    best = run / "best.pt"
+    small = compact_gnn(read_gnn_checkpoint(best), sha256(best))
+    save_gnn_checkpoint(out, small)
+    try:
+        summary = json.loads((run / "summary.json").read_text())
+    except (OSError, json.JSONDecodeError) as e:
+        raise DomainError(run / "summary.json", f"cannot read the run's summary ({type(e).__name__})") from None
+    figs = {"run": str(run), "checkpoint": str(out), "checkpoint_epoch": small.get("epoch"), **summary}
+    if figures is not None:
+        write_json(figures, figs)
+    return small, figs
+
+
 def export(run: Path, out: Path, figures: Path | None) -> tuple[dict, dict]:
     """Write the compact checkpoint (and the key figures); returns (compact payload, figures)."""
     best = run / "best.pt"
@@ -120,19 +173,24 @@ def export(run: Path, out: Path, figures: Path | None) -> tuple[dict, dict]:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("run", help="a learning.dqn run folder (best.pt, metrics.jsonl)")
-    p.add_argument("--out", help="compact checkpoint (default: checkpoints/rl-<horizon>-<layout>-seed<N>.pt)")
-    p.add_argument("--figures", help="key figures JSON (default: results/training-<horizon>-<layout>-seed<N>.json)")
+    p.add_argument("run", help="a learning.dqn run folder (best.pt, metrics.jsonl) or a learning.gnn_train one "
+                               "(best.pt, summary.json)")
+    p.add_argument("--out", help="compact checkpoint (default: checkpoints/rl-<horizon>-<layout>-seed<N>.pt, "
+                                 "checkpoints/gnn-<variant>-<layout>-seed<N>.pt)")
+    p.add_argument("--figures", help="key figures JSON (default: results/training-<checkpoint name without rl->.json)")
 
     def run():
         args = p.parse_args()
         folder = Path(args.run)
-        cfg = read_checkpoint(folder / "best.pt").get("config", {})
-        name = f"{cfg.get('horizon')}-{cfg.get('layout')}-seed{cfg.get('seed')}"
-        out = Path(args.out or f"checkpoints/rl-{name}.pt")
-        figures = Path(args.figures or f"results/training-{name}.json")
+        names = default_names(folder) if not (args.out and args.figures) else (args.out, args.figures)
+        out, figures = Path(args.out or names[0]), Path(args.figures or names[1])
         cli.check_writable(out)
         cli.check_writable(figures)
+        if is_gnn_run(folder):
+            small, figs = export_gnn(folder, out, figures)
+            print(f"wrote {out} ({out.stat().st_size / 1e3:.0f} KB, {PRECISION}, epoch {small.get('epoch')}, "
+                  f"validation L1 {figs['best_val_l1']:.2f}) and {figures}")
+            return
         small, figs = export(folder, out, figures)
         at = figs.get("at", {})
         print(f"wrote {out} ({out.stat().st_size / 1e3:.0f} KB, {PRECISION}, step {small.get('step')}) "

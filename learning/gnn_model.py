@@ -97,7 +97,11 @@ def read_gnn_checkpoint(path) -> dict:
     if not isinstance(payload, dict) or payload.get("kind") != KIND or "model" not in payload \
             or "dims" not in payload:
         raise DomainError(path, "not a GNN checkpoint (learning.gnn_train writes them)")
-    return from_plain(payload)
+    payload = from_plain(payload)
+    if payload.get("precision") == "float16":      # a compact checkpoint (learning.export): float32 again
+        from learning.plain import from_half
+        payload["model"] = from_half(payload["model"])
+    return payload
 
 
 def load_gnn(path) -> tuple[GNNCostModel, dict]:

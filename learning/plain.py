@@ -111,3 +111,13 @@ def load_plain(path, what: str = "checkpoint"):
         with open(path, "rb") as f:
             head = f.read(2)
         raise DomainError(path, refusal(e, what, head)) from None
+
+
+def to_half(state: dict) -> dict:
+    """A state_dict with its floating-point tensors in float16 (a compact checkpoint's weights)."""
+    return type(state)((k, v.to(torch.float16) if v.is_floating_point() else v) for k, v in state.items())
+
+
+def from_half(state: dict) -> dict:
+    """A compact state_dict back in float32, the precision the networks compute in."""
+    return type(state)((k, v.float() if v.is_floating_point() else v) for k, v in state.items())

@@ -26,7 +26,7 @@ from planning.atomic import write_bytes
 from planning.errors import DomainError
 
 from .encoding import Encoding
-from .plain import from_plain, load_plain, to_plain
+from .plain import from_half, from_plain, load_plain, to_plain
 
 # Transition kinds in the replay buffer: how the target bootstraps (Algorithm 1).
 CONTINUE = 0     # within the task, or the per-task timeout: bootstrap the same task (§4.1.3 a)
@@ -826,8 +826,7 @@ def read_checkpoint(path) -> dict:
         raise DomainError(path, "not a Q-network checkpoint (no 'net' or 'dims')")
     payload = from_plain(payload)
     if payload.get("precision") == "float16":      # a compact checkpoint (learning.export): float32 again
-        payload["net"] = type(payload["net"])((k, v.float() if v.is_floating_point() else v)
-                                              for k, v in payload["net"].items())
+        payload["net"] = from_half(payload["net"])
     return payload
 
 

@@ -177,3 +177,23 @@ def test_gnn_bench_scores_the_validation_split(minimal, encoder, dataset, tmp_pa
     assert r["validation"]["mae"] == pytest.approx(s["best_val_l1"], abs=0.01)
     assert r["inference"]["batch"] == 6 and r["exact"]["states"] == 5
     assert -1.0 <= r["validation"]["spearman"] <= 1.0
+
+
+def test_compact_gnn_checkpoint_predicts_as_the_full_one(dataset, tmp_path):
+    """learning.export on a GNN run: float16 weights, about half the bytes, float32 again on load, the same Ĉ_AP
+    to float16 rounding; its figures are the run's summary."""
+    from torch_geometric.loader import DataLoader
+    from learning.export import default_names, export_gnn, is_gnn_run
+    s = train(TrainConfig(data=str(dataset), seed=0, epochs=2), tmp_path / "run", progress=False)
+    assert is_gnn_run(tmp_path / "run")
+    with pytest.raises(DomainError, match="variant"):      # the test dataset's meta has no generator config
+        default_names(tmp_path / "run")
+    small, figs = export_gnn(tmp_path / "run", tmp_path / "small.pt", tmp_path / "figs.json")
+    assert figs["best_val_l1"] == s["best_val_l1"] and small["precision"] == "float16"
+    assert (tmp_path / "small.pt").stat().st_size < 0.6 * (tmp_path / "run" / "best.pt").stat().st_size
+    (full, _), (half, payload) = load_gnn(tmp_path / "run" / "best.pt"), load_gnn(tmp_path / "small.pt")
+    assert all(v.dtype != torch.float16 for v in payload["model"].values())
+    batch = next(iter(DataLoader(load_dataset(dataset), batch_size=64)))
+    with torch.no_grad():
+        a, b = full.predict(batch), half.predict(batch)
+    torch.testing.assert_close(b, a, rtol=5e-3, atol=0.5)
