@@ -153,7 +153,7 @@ def gnn_train(variant: str, layout: str, seed: int) -> str:
     epochs = 12 if variant == "augmented" else 40
     return (f"python -m learning.gnn_dataset --layout {layout}{flag} --n-states 2000 --out {data} && "
             f"python -m learning.gnn_train --data {data} --seed {seed} --epochs {epochs} --out {data}-seed{seed} && "
-            f"cp {data}-seed{seed}/best.pt {gnn_model(variant, layout, seed)}")
+            f"python -m learning.export {data}-seed{seed}")
 
 
 def _rl_run(agent: str, horizon: str, layout: str, s) -> Run:
