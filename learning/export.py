@@ -16,7 +16,8 @@
   the TD target and the share of refill-water actions in the last log window; the
   greedy evaluations (and, for a myopic run, demo_q_bias: Q above the myopic
   oracle's return on the demonstrations, the divergence alarm); the largest selected
-  Q of the run and where; the wall time of the training loop (the sum of each
+  Q of the run and where, and the largest refill-water share (the thesis's Figure A.2);
+  the wall time of the training loop (the sum of each
   log window's steps over its measured rate). A GNN run's are its summary.json
   (validation L1, best epoch, seconds per epoch). Default: results/training-<name>.json.
 """
@@ -91,8 +92,11 @@ def key_figures(logs: list[dict], evals: list[dict], refill: str = "refill-water
         if r.get("steps_per_s"):
             seconds += (r["step"] - prev) / r["steps_per_s"]
         prev = r["step"]
+    refills = [(r.get("action_share", {}).get(refill) or 0.0, r["step"]) for r in logs]
+    top = max(refills)
     return {"steps": last, "at": at, "best_greedy": _eval(best) if best else None,
             "peak_selected_q": {"step": peak["step"], "selected_q": round(peak["selected_q"], 3)},
+            "peak_refill_share": {"step": top[1], "share": top[0]},
             "train_hours": round(seconds / 3600, 3),
             "steps_per_s_median": _median([r["steps_per_s"] for r in logs if r.get("steps_per_s")])}
 

@@ -586,4 +586,5 @@ def test_key_figures_of_a_run():
     assert f["at"]["250000"]["step"] == 250_000 and f["at"]["100000"]["greedy"]["demo_q_bias"] == 0.25
     assert f["best_greedy"]["step"] == 200_000
     assert f["peak_selected_q"] == {"step": 100_000, "selected_q": -900.0}
+    assert f["peak_refill_share"] == {"step": 250_000, "share": 0.01}        # ties: the latest window
     assert f["train_hours"] == round(250_000 / 100 / 3600, 3)
