@@ -66,7 +66,10 @@ def read_metrics(path: Path) -> tuple[list[dict], list[dict]]:
             if i == len(lines) - 1:
                 break
             raise DomainError(path, f"line {i + 1} is not JSON") from None
-        (evals.append(row["eval"]) if "eval" in row else logs.append(row)) if isinstance(row, dict) else None
+        if isinstance(row, dict) and "eval" in row:
+            evals.append(row["eval"])
+        elif isinstance(row, dict):
+            logs.append(row)
     return logs, evals
 
 
@@ -123,9 +126,9 @@ def is_gnn_run(run: Path) -> bool:
     return isinstance(payload, dict) and payload.get("kind") == KIND
 
 
-def default_names(run: Path) -> tuple[str, str]:
-    """(checkpoint, figures) default paths of a run folder."""
-    if is_gnn_run(run):
+def default_names(run: Path, gnn: bool) -> tuple[str, str]:
+    """(checkpoint, figures) default paths of a run folder (`gnn`: a learning.gnn_train run)."""
+    if gnn:
         from learning.gnn_model import read_gnn_checkpoint
 
         p = read_gnn_checkpoint(run / "best.pt")
@@ -186,11 +189,12 @@ def main() -> None:
     def run():
         args = p.parse_args()
         folder = Path(args.run)
-        names = default_names(folder) if not (args.out and args.figures) else (args.out, args.figures)
+        gnn = is_gnn_run(folder)
+        names = default_names(folder, gnn) if not (args.out and args.figures) else (args.out, args.figures)
         out, figures = Path(args.out or names[0]), Path(args.figures or names[1])
         cli.check_writable(out)
         cli.check_writable(figures)
-        if is_gnn_run(folder):
+        if gnn:
             small, figs = export_gnn(folder, out, figures)
             print(f"wrote {out} ({out.stat().st_size / 1e3:.0f} KB, {PRECISION}, epoch {small.get('epoch')}, "
                   f"validation L1 {figs['best_val_l1']:.2f}) and {figures}")

@@ -187,7 +187,7 @@ def test_compact_gnn_checkpoint_predicts_as_the_full_one(dataset, tmp_path):
     s = train(TrainConfig(data=str(dataset), seed=0, epochs=2), tmp_path / "run", progress=False)
     assert is_gnn_run(tmp_path / "run")
     with pytest.raises(DomainError, match="variant"):      # the test dataset's meta has no generator config
-        default_names(tmp_path / "run")
+        default_names(tmp_path / "run", gnn=True)
     small, figs = export_gnn(tmp_path / "run", tmp_path / "small.pt", tmp_path / "figs.json")
     assert figs["best_val_l1"] == s["best_val_l1"] and small["precision"] == "float16"
     assert (tmp_path / "small.pt").stat().st_size < 0.6 * (tmp_path / "run" / "best.pt").stat().st_size
