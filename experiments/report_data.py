@@ -15,7 +15,6 @@ report then names the commit that last touched the file).
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import os
@@ -26,6 +25,7 @@ from pathlib import Path
 
 from experiments.registry import AGENTS, agent_class
 from experiments.report_specs import Row, Run
+from planning import atomic
 from planning.errors import DomainError
 from planning.world.sequences import COUNT, DEVELOPMENT
 
@@ -64,8 +64,8 @@ def last_commit(path: str) -> str | None:
 
 @lru_cache(maxsize=None)
 def sha256(path: str) -> str | None:
-    p = Path(path)
-    return hashlib.sha256(p.read_bytes()).hexdigest() if p.is_file() else None
+    """A checkpoint's digest, read once per report."""
+    return atomic.sha256(path)
 
 
 def writer_pid(run: Run) -> int | None:
@@ -259,16 +259,7 @@ def improvement(result: RowResult, reference: RowResult, ids=ALL) -> float | Non
 
 
 def read_jsonl(path) -> list[dict]:
-    """The rows of a metrics.jsonl (a torn last line dropped); [] if the file is missing."""
-    p = Path(path)
-    if not p.is_file():
-        return []
-    rows = []
-    for line in p.read_text(errors="replace").splitlines():
-        try:
-            row = json.loads(line)
-        except ValueError:
-            continue
-        if isinstance(row, dict):
-            rows.append(row)
-    return rows
+    """The rows of a run's metrics.jsonl, unreadable lines skipped; [] if the file is missing."""
+    from learning.dqn import read_metrics
+
+    return read_metrics(path, strict=False)[0] if Path(path).is_file() else []

@@ -497,34 +497,42 @@ class Trainer:
         self._trim_metrics()
 
     def _trim_metrics(self) -> None:
-        """Drop metrics rows written after the checkpoint resumed from: those steps run again.
-
-        The file is appended to, so a run killed mid-write leaves a half-written
-        last line: it is dropped, and said so. A bad line before the last is an error.
-        """
+        """Drop metrics rows written after the checkpoint resumed from: those steps run again."""
         if not self.metrics.is_file():
             return
-        step = lambda row: row.get("step", row.get("eval", {}).get("step", 0))
-        lines = [line for line in self.metrics.read_text(errors="replace").splitlines() if line.strip()]
-        keep = []
-        for k, line in enumerate(lines):
-            try:
-                row = json.loads(line)
-                if not isinstance(row, dict):
-                    raise ValueError("not a JSON object")
-                at = step(row)
-                if not isinstance(at, (int, float)):
-                    raise ValueError("no step")
-            except ValueError:
-                if k == len(lines) - 1:
-                    print(f"{self.metrics}: dropped a half-written last line (the run was stopped while "
-                          "writing it)", file=sys.stderr)
-                    break
-                raise DomainError(self.metrics, f"line {k + 1} is not a metrics row; delete the file or "
-                                                "pass --fresh to start over") from None
-            if at <= self.step:
-                keep.append(line)
-        write_text(self.metrics, "".join(line + "\n" for line in keep))
+        rows, torn = read_metrics(self.metrics)
+        if torn:
+            print(f"{self.metrics}: dropped a half-written last line (the run was stopped while writing it)",
+                  file=sys.stderr)
+        keep = [row for row in rows if row.get("step", row.get("eval", {}).get("step", 0)) <= self.step]
+        write_text(self.metrics, "".join(json.dumps(row) + "\n" for row in keep))
+
+
+def read_metrics(path, strict: bool = True) -> tuple[list[dict], bool]:
+    """(the rows of a run's metrics.jsonl, whether a half-written last line was dropped).
+
+    The file is appended to, so a run killed mid-write leaves a torn last line: it is
+    dropped. A bad line before the last is a one-line DomainError (strict) or skipped.
+    """
+    path = Path(path)
+    try:
+        lines = [line for line in path.read_text(errors="replace").splitlines() if line.strip()]
+    except OSError as e:
+        raise DomainError(path, f"cannot read the run's metrics ({e.strerror})") from None
+    rows = []
+    for k, line in enumerate(lines):
+        try:
+            row = json.loads(line)
+        except ValueError:
+            row = None
+        if isinstance(row, dict):
+            rows.append(row)
+        elif k == len(lines) - 1:
+            return rows, True
+        elif strict:
+            raise DomainError(path, f"line {k + 1} is not a metrics row; delete the file or pass --fresh "
+                                    "to start over")
+    return rows, False
 
 
 def make_config(args) -> Config:

@@ -24,16 +24,16 @@
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 from pathlib import Path
 
 
 from planning import cli
-from planning.atomic import write_json
+from planning.atomic import sha256, write_json
 from planning.errors import DomainError
 
 from learning.plain import load_plain, to_half
+from learning.dqn import read_metrics
 from learning.qnet import read_checkpoint, save_checkpoint
 
 MILESTONES = (50_000, 100_000, 250_000, 500_000)
@@ -52,25 +52,10 @@ def compact_gnn(payload: dict, source: str | None = None) -> dict:
             **({"source_sha256": source} if source else {})}
 
 
-def read_metrics(path: Path) -> tuple[list[dict], list[dict]]:
-    """(log rows, evaluation rows) of a metrics.jsonl; a torn last line is dropped."""
-    logs, evals = [], []
-    try:
-        lines = path.read_text().splitlines()
-    except OSError as e:
-        raise DomainError(path, f"cannot read the run's metrics ({e.strerror})") from None
-    for i, line in enumerate(lines):
-        try:
-            row = json.loads(line)
-        except json.JSONDecodeError:
-            if i == len(lines) - 1:
-                break
-            raise DomainError(path, f"line {i + 1} is not JSON") from None
-        if isinstance(row, dict) and "eval" in row:
-            evals.append(row["eval"])
-        elif isinstance(row, dict):
-            logs.append(row)
-    return logs, evals
+def split_metrics(path: Path) -> tuple[list[dict], list[dict]]:
+    """(log rows, evaluation rows) of a run's metrics.jsonl."""
+    rows, _ = read_metrics(path)
+    return [r for r in rows if "eval" not in r], [r["eval"] for r in rows if "eval" in r]
 
 
 def key_figures(logs: list[dict], evals: list[dict], refill: str = "refill-water") -> dict:
@@ -112,10 +97,6 @@ def _eval(e: dict) -> dict:
 def _median(xs: list) -> float | None:
     xs = sorted(xs)
     return round(xs[len(xs) // 2], 2) if xs else None
-
-
-def sha256(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 def is_gnn_run(run: Path) -> bool:
@@ -168,7 +149,7 @@ def export(run: Path, out: Path, figures: Path | None) -> tuple[dict, dict]:
     payload = read_checkpoint(best)
     small = compact(payload, sha256(best))
     save_checkpoint(out, small)
-    logs, evals = read_metrics(run / "metrics.jsonl")
+    logs, evals = split_metrics(run / "metrics.jsonl")
     cfg = payload.get("config", {})
     figs = {"run": str(run), "checkpoint": str(out), "checkpoint_step": payload.get("step"),
             **{k: cfg.get(k) for k in ("domain", "layout", "horizon", "seed", "steps", "gamma")},

@@ -91,17 +91,13 @@ def save_gnn_checkpoint(path, payload: dict) -> Path:
 
 def read_gnn_checkpoint(path) -> dict:
     """A GNN checkpoint's payload, loaded with weights_only=True; anything else is a one-line DomainError."""
-    from learning.plain import from_plain, load_plain
+    from learning.plain import from_plain, full_precision, load_plain
 
     payload = load_plain(path, "GNN checkpoint")
     if not isinstance(payload, dict) or payload.get("kind") != KIND or "model" not in payload \
             or "dims" not in payload:
         raise DomainError(path, "not a GNN checkpoint (learning.gnn_train writes them)")
-    payload = from_plain(payload)
-    if payload.get("precision") == "float16":      # a compact checkpoint (learning.export): float32 again
-        from learning.plain import from_half
-        payload["model"] = from_half(payload["model"])
-    return payload
+    return full_precision(from_plain(payload), "model")
 
 
 def load_gnn(path) -> tuple[GNNCostModel, dict]:

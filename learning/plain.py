@@ -121,3 +121,11 @@ def to_half(state: dict) -> dict:
 def from_half(state: dict) -> dict:
     """A compact state_dict back in float32, the precision the networks compute in."""
     return type(state)((k, v.float() if v.is_floating_point() else v) for k, v in state.items())
+
+
+def full_precision(payload: dict, key: str) -> dict:
+    """The checkpoint payload with its weights `payload[key]` in float32: a compact checkpoint
+    (learning.export, precision "float16") is cast back; any other is returned as it is."""
+    if payload.get("precision") == "float16":
+        payload[key] = from_half(payload[key])
+    return payload

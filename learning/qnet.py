@@ -26,7 +26,7 @@ from planning.atomic import write_bytes
 from planning.errors import DomainError
 
 from .encoding import Encoding
-from .plain import from_half, from_plain, load_plain, to_plain
+from .plain import from_plain, full_precision, load_plain, to_plain
 
 # Transition kinds in the replay buffer: how the target bootstraps (Algorithm 1).
 CONTINUE = 0     # within the task, or the per-task timeout: bootstrap the same task (§4.1.3 a)
@@ -824,10 +824,7 @@ def read_checkpoint(path) -> dict:
     payload = load_plain(path, "checkpoint")
     if not isinstance(payload, dict) or "net" not in payload or "dims" not in payload:
         raise DomainError(path, "not a Q-network checkpoint (no 'net' or 'dims')")
-    payload = from_plain(payload)
-    if payload.get("precision") == "float16":      # a compact checkpoint (learning.export): float32 again
-        payload["net"] = from_half(payload["net"])
-    return payload
+    return full_precision(from_plain(payload), "net")
 
 
 def network_payload(net: FactoredQNet, enc: Encoding, extra: dict | None = None) -> dict:

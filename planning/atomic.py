@@ -1,6 +1,7 @@
-"""Atomic file writes: a reader never sees half a result file or checkpoint."""
+"""Atomic file writes: a reader never sees half a result file or checkpoint; and a file's digest."""
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import tempfile
@@ -40,3 +41,9 @@ def current_umask() -> int:
 def write_json(path, obj) -> Path:
     """Write JSON atomically (indented, keys in insertion order)."""
     return write_text(path, json.dumps(obj, indent=1) + "\n")
+
+
+def sha256(path) -> str | None:
+    """The hex sha256 of a file's bytes (None if there is no such file): the provenance of a checkpoint."""
+    path = Path(path)
+    return hashlib.sha256(path.read_bytes()).hexdigest() if path.is_file() else None

@@ -119,12 +119,12 @@ def results_provenance(config: dict, played=()) -> dict:
     """A results file's `provenance` (SPEC.md): commit, command and date (`planning.parallel.provenance`),
     whether tracked code differed from the commit, the UTC date, the machine, the sha256 of the
     checkpoint the configuration names, and the sequences this process played (the others were kept)."""
-    import hashlib
     import os
     import platform
     import subprocess
     from datetime import datetime, timezone
 
+    from planning.atomic import sha256
     from planning.parallel import provenance
 
     out = provenance()
@@ -143,7 +143,7 @@ def results_provenance(config: dict, played=()) -> dict:
     checkpoint = next((v for k in ("checkpoint", "model") if isinstance(v := (config or {}).get(k), str)), None)
     if checkpoint and Path(checkpoint).is_file():
         out["checkpoint"] = checkpoint
-        out["checkpoint_sha256"] = hashlib.sha256(Path(checkpoint).read_bytes()).hexdigest()
+        out["checkpoint_sha256"] = sha256(checkpoint)
     out["played_in_this_process"] = sorted(played)
     return out
 
