@@ -37,6 +37,7 @@ import torch
 
 from planning import cli
 from planning.atomic import write_json
+from planning.world.runner import results_provenance
 from planning.domain.compiler import compile_domain
 
 from .dqn import HORIZONS, Config, Trainer, domain_defaults
@@ -146,7 +147,7 @@ def main() -> None:
                      f"(uncached {c['boundary_share_uncached']:.0%}, {c['updates_per_s_uncached']:.1f} updates/s)")
         print(line, flush=True)
     path = args.out or f"results/dqn-bench-{model.layout}.json"
-    write_json(path, out)
+    write_json(path, {**out, "provenance": results_provenance(out)})
     print(f"wrote {path}")
 
 

@@ -31,6 +31,7 @@ from pathlib import Path
 from planning import cli
 from planning.atomic import sha256, write_json
 from planning.errors import DomainError
+from planning.world.runner import results_provenance
 
 from learning.plain import load_plain, to_half
 from learning.dqn import read_metrics
@@ -139,7 +140,7 @@ def export_gnn(run: Path, out: Path, figures: Path | None) -> tuple[dict, dict]:
         raise DomainError(run / "summary.json", f"cannot read the run's summary ({type(e).__name__})") from None
     figs = {"run": str(run), "checkpoint": str(out), "checkpoint_epoch": small.get("epoch"), **summary}
     if figures is not None:
-        write_json(figures, figs)
+        write_json(figures, {**figs, "provenance": results_provenance(figs)})
     return small, figs
 
 
@@ -155,7 +156,7 @@ def export(run: Path, out: Path, figures: Path | None) -> tuple[dict, dict]:
             **{k: cfg.get(k) for k in ("domain", "layout", "horizon", "seed", "steps", "gamma")},
             **key_figures(logs, evals)}
     if figures is not None:
-        write_json(figures, figs)
+        write_json(figures, {**figs, "provenance": results_provenance(figs)})
     return small, figs
 
 

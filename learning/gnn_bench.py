@@ -31,6 +31,7 @@ from scipy import stats
 
 from planning import cli
 from planning.atomic import write_json
+from planning.world.runner import results_provenance
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 
@@ -130,7 +131,7 @@ def main() -> None:
         out = Path(args.out or f"results/bench-gnn-{Path(args.model).stem.removeprefix('gnn-')}.json")
         cli.check_writable(out)
         r = bench(args.model, args.data, args.domain, args.batch, args.repeats, args.exact)
-        write_json(out, r)
+        write_json(out, {**r, "provenance": results_provenance({"model": args.model})})
         a, i, e = r["validation"], r["inference"], r["exact"]
         print(f"{r['layout']} validation ({a['states']} states): MAE {a['mae']} (exact mean {a['exact_mean']}), "
               f"Spearman {a['spearman']}, pairs ordered right {a['pair_agreement']:.1%} | batch of {i['batch']}: "

@@ -18,6 +18,7 @@ import numpy as np
 
 from planning import cli
 from planning.atomic import write_json
+from planning.world.runner import results_provenance
 from planning.domain.batched import BatchedModel
 from planning.domain.compiler import compile_domain
 
@@ -116,7 +117,7 @@ def main() -> None:
     print(f"  ratio single  {r['ratio_single']:>8.1f}  (target >= 300)")
     print(f"  ratio batched {r['ratio_batched']:>8.1f}  (target >= 3000)")
     if args.out:
-        write_json(args.out, r)
+        write_json(args.out, {**r, "provenance": results_provenance(vars(args))})
         print(f"wrote {args.out}")
 
 

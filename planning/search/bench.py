@@ -11,6 +11,7 @@ import time
 
 from planning import cli
 from planning.atomic import write_json
+from planning.world.runner import results_provenance
 from planning.domain.batched import BatchedModel
 from planning.domain.compiler import compile_domain
 
@@ -84,7 +85,7 @@ def main() -> None:
           f"{r['fast_downward_seconds']}s; ratio total {r['ratio_total']}, per call median "
           f"{r['ratio_per_call_median']} (min {r['ratio_per_call_min']})")
     if args.out:
-        write_json(args.out, r)
+        write_json(args.out, {**r, "provenance": results_provenance(vars(args))})
 
 
 if __name__ == "__main__":
