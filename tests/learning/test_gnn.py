@@ -197,3 +197,41 @@ def test_compact_gnn_checkpoint_predicts_as_the_full_one(dataset, tmp_path):
     with torch.no_grad():
         a, b = full.predict(batch), half.predict(batch)
     torch.testing.assert_close(b, a, rtol=5e-3, atol=0.5)
+
+
+class _LabelValue:
+    """A value that knows the exact C_AP of the dataset's states (or its negation: the worst ranking)."""
+
+    def __init__(self, minimal, dataset, sign: float):
+        meta = json.loads((dataset / "meta.json").read_text())
+        self.gamma, self.sign = 1.0, sign
+        self.c = {minimal.state_from_atoms(a): c for a, c in zip(meta["atoms"], meta["c_ap"])}
+
+    def q_max(self, states, task):
+        return self.v_ap(states)
+
+    def v_ap(self, states):
+        return np.array([-self.sign * self.c[s] / 100 for s in states])
+
+
+def test_value_rank_scores_the_exact_ranking_one_and_its_reverse_minus_one(minimal, dataset):
+    from learning.value_rank import rank
+
+    r = rank([_LabelValue(minimal, dataset, 1.0), _LabelValue(minimal, dataset, -1.0)], str(dataset), "domains/minimal")
+    exact, reverse = r["values"][0]["all"], r["values"][1]["all"]
+    assert exact["states"] == reverse["states"] == r["states"] > 20
+    assert exact["spearman"] == exact["kendall"] == exact["pair_agreement"] == 1.0
+    assert exact["slope_rl_per_pddl"] == pytest.approx(0.01)
+    assert reverse["spearman"] == reverse["kendall"] == -1.0 and reverse["pair_agreement"] == 0.0
+    assert reverse["slope_rl_per_pddl"] == pytest.approx(-0.01)
+
+
+def test_value_rank_scores_a_gnn_on_its_validation_split_only(minimal, encoder, dataset, tmp_path, monkeypatch):
+    import learning.value_rank as vr
+
+    train(TrainConfig(data=str(dataset), seed=0, epochs=1), tmp_path, progress=False)
+    monkeypatch.setattr(vr, "load_value", lambda path, model: GNNValue(path, model, encoder=encoder))
+    row = vr.rank([str(tmp_path / "best.pt")], str(dataset), "domains/minimal")["values"][0]
+    n = json.loads((dataset / "meta.json").read_text())["n"]
+    assert row["scored_on"] == "the validation split of its own training run"
+    assert row["all"]["states"] == len(split(n, 0)[1]) < n
