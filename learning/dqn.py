@@ -81,7 +81,15 @@ class Config:
     eps_end: float = 0.05
     """final exploration rate"""
     eps_decay_steps: int = 100_000
-    """steps over which ε decays exponentially from eps_start to eps_end"""
+    """the decay's scale in steps (see eps_schedule)"""
+    eps_schedule: str = "time-constant"
+    """time-constant: ε = eps_end + (eps_start − eps_end)·exp(−step/eps_decay_steps), the authors'
+    (0.40 at 100k steps, 0.10 at 300k); reach: exponential from eps_start to eps_end within
+    eps_decay_steps, then flat (this project's runs made before 2026-11-29)"""
+    explore: str = "factored"
+    """ε's random action: factored (a valid action type uniformly, then each argument head uniformly
+    among the values valid with the heads before it, the authors'); uniform (uniform over the
+    applicable ground actions, this project's runs made before 2026-11-29)"""
     target_every: int = 1_000
     """steps between target-network syncs"""
     grad_clip: float = 1.0
@@ -94,6 +102,9 @@ class Config:
     """completion reward R_goal (RL units); None: learning.reward.goal_reward"""
     demo_tasks: int = 500
     """myopic-oracle task outcomes seeded into the demo memory (Appendix A.1)"""
+    demo_planner: str = "internal"
+    """the planner of the demonstrations (oracles.rollouts): internal (the optimal myopic oracle) or
+    clairvoyant-K (each task planned with the next K-1: the authors' anticipatory demonstrations)"""
     demo_seed: int = 0
     """task-stream seed of the demonstrations (shared across training seeds)"""
     demo_fraction: float = 0.2
@@ -108,6 +119,11 @@ class Config:
     """steps between resumable checkpoints"""
     out: str | None = None
     """run folder (default runs/dqn/<domain>-<layout>-<horizon>-seed<seed>)"""
+
+
+CHOICES = {"eps_schedule": ("time-constant", "reach"), "explore": ("factored", "uniform")}
+LEGACY = {"eps_schedule": "reach", "explore": "uniform", "demo_planner": "internal"}
+"""What a checkpoint written before these settings existed was trained with."""
 
 
 def keep_freed_memory() -> None:
@@ -128,7 +144,8 @@ def keep_freed_memory() -> None:
 
 
 def domain_defaults(model, horizon: str) -> dict:
-    """Config values from domain.toml: [training] (keyed by layout, then horizon, where a table) and [reward] gamma."""
+    """Config values from domain.toml: [training] (a table keyed by layout, by horizon, or by layout then
+    horizon) and [reward] gamma."""
     names = {f.name for f in fields(Config)}
     table = dict(model.config.get("training", {}))
     out = {}
@@ -138,18 +155,36 @@ def domain_defaults(model, horizon: str) -> dict:
         if key not in names:
             raise DomainError(model.files["config"], f"[training] '{key}' is not a training setting")
         for selector in (model.layout, horizon):
-            if isinstance(value, dict):
-                if selector not in value:
-                    raise DomainError(model.files["config"], f"[training] {key} has no entry for '{selector}'")
+            if isinstance(value, dict) and selector in value:
                 value = value[selector]
+        if isinstance(value, dict):
+            raise DomainError(model.files["config"], f"[training] {key} has no entry for {model.layout} {horizon}")
         out[key] = value
     return out
 
 
 def epsilon(cfg: Config, step: int) -> float:
-    """ε at a step: exponential decay from eps_start to eps_end over eps_decay_steps, then flat."""
+    """ε at a step (cfg.eps_schedule)."""
+    if cfg.eps_schedule == "time-constant":
+        return cfg.eps_end + (cfg.eps_start - cfg.eps_end) * math.exp(-step / max(1, cfg.eps_decay_steps))
     frac = min(1.0, step / max(1, cfg.eps_decay_steps))
     return cfg.eps_start * (cfg.eps_end / cfg.eps_start) ** frac
+
+
+def random_action(actions: np.ndarray, labels: np.ndarray, rng, factored: bool = True) -> int:
+    """ε's random choice among the applicable ground actions: uniform, or factored as the network
+    chooses (a type uniformly among the valid ones, then each argument head in turn uniformly
+    among the values valid with the heads chosen before it)."""
+    cand = np.asarray(actions)
+    if factored:
+        for col in range(labels.shape[1]):
+            if len(cand) == 1:
+                break
+            values = labels[cand, col]
+            options = np.unique(values)
+            if len(options) > 1:
+                cand = cand[values == options[rng.integers(len(options))]]
+    return int(cand[rng.integers(len(cand))]) if len(cand) > 1 else int(cand[0])
 
 
 def demonstrations(model, enc: Encoding, cfg: Config, r_goal: float, scale: float, terminal_reset: bool,
@@ -161,7 +196,7 @@ def demonstrations(model, enc: Encoding, cfg: Config, r_goal: float, scale: floa
     if cfg.demo_tasks <= 0:
         return Replay(1, enc.n_words), np.zeros(0)
     from oracles.rollouts import cached_rollout
-    records = cached_rollout(model, cfg.demo_seed, cfg.demo_tasks, planner="internal", progress=progress)
+    records = cached_rollout(model, cfg.demo_seed, cfg.demo_tasks, planner=cfg.demo_planner, progress=progress)
     per_reset = model.config.get("stream", {}).get("tasks_per_reset", 50)
     rows, returns = [], []
     for rec in records:
@@ -223,6 +258,9 @@ class Trainer:
         # -- setup: model, encodings, R_goal, seeding --------------------------------------------
         if cfg.horizon not in HORIZONS:
             raise DomainError("--horizon", f"'{cfg.horizon}' is neither myopic nor anticipatory")
+        for key, allowed in CHOICES.items():
+            if getattr(cfg, key) not in allowed:
+                raise DomainError(f"--{key.replace('_', '-')}", f"'{getattr(cfg, key)}' is not one of {', '.join(allowed)}")
         torch.set_num_threads(1)            # 2 cores shared by several engineers
         keep_freed_memory()
         self.cfg, self.progress = cfg, progress
@@ -346,7 +384,7 @@ class Trainer:
         """ε-greedy over the applicable actions (line 5)."""
         actions = self.model.applicable(state)
         if self.rng.random() < eps:
-            return int(actions[self.rng.integers(len(actions))])
+            return random_action(actions, self.enc.labels, self.rng, self.cfg.explore == "factored")
         valid = np.zeros(self.enc.n_actions, dtype=bool)
         valid[actions] = True
         return self.greedy(self.enc.observe(self.enc.pack([state]), [task])[0], valid)
@@ -471,10 +509,11 @@ class Trainer:
         old = p.get("config", {})
         # The reward and discount define the learning problem: a run continues only under its own
         # (a calibration written after the run started must not change R_goal halfway).
-        for key in ("domain", "layout", "horizon", "seed", "hidden", "goal_reward", "gamma"):
-            if old.get(key) != getattr(self.cfg, key):
-                hint = f" (pass --goal-reward {old.get(key)} to continue it)" if key == "goal_reward" else ""
-                raise DomainError(path, f"was trained with {key}={old.get(key)!r}, not {getattr(self.cfg, key)!r}{hint}")
+        for key in ("domain", "layout", "horizon", "seed", "hidden", "goal_reward", "gamma", *LEGACY):
+            was = old.get(key, LEGACY.get(key))
+            if was != getattr(self.cfg, key):
+                hint = f" (pass --{key.replace('_', '-')} {was} to continue it)" if key in ("goal_reward", *LEGACY) else ""
+                raise DomainError(path, f"was trained with {key}={was!r}, not {getattr(self.cfg, key)!r}{hint}")
         if p["signature"] != self.enc.signature():
             raise DomainError(path, "was trained on a different compilation of this layout")
         self.net.load_state_dict(p["net"])

@@ -93,24 +93,33 @@ class TaskRecord:
     info: dict = field(default_factory=dict)
 
 
-def rollout(model, planner: Planner, seed: int, n_tasks: int, done: list | None = None) -> Iterator[TaskRecord]:
+def rollout(model, planner: Planner, seed: int, n_tasks: int, done: list | None = None,
+            lookahead: int = 0) -> Iterator[TaskRecord]:
     """A persistent rollout of a planner on a seeded task stream (TaskStream: world reset every 50 tasks).
 
     Yields one TaskRecord per task. `done` (records of an earlier, interrupted run
     with the same seed) are replayed without planning, so a caller can resume.
+    `lookahead`: how many of the stream's next tasks the planner is shown (a
+    clairvoyant oracle's window), never past the next world reset.
     """
     stream = TaskStream(model, seed)
     world = PersistentWorld(model)
     done = list(done or [])
+    drawn = [stream.next() for _ in range(n_tasks + lookahead)]
     for i in range(n_tasks):
-        task, reset = stream.next()
+        task, reset = drawn[i]
+        upcoming = []
+        for later, later_reset in drawn[i + 1:i + 1 + lookahead]:
+            if later_reset is not None:
+                break
+            upcoming.append(later)
         if reset is not None:
             world.reset(reset)
         before = world.state
         if i < len(done) and done[i].task != task.name:
             raise ValueError(f"resumed record {i} is {done[i].task}, but seed {seed} draws {task.name}")
         agent = planner if i >= len(done) else PlanFunction(lambda s, t, r=done[i]: Reply(r.plan or None, r.info))
-        info = play_task(world, agent, task)
+        info = play_task(world, agent, task, upcoming)
         plan = info.pop("executed", [])
         states = [before]
         for a in plan or []:

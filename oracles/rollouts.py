@@ -1,8 +1,12 @@
-"""Persistent myopic rollouts cached on disk: the one source of "states the myopic oracle visits".
+"""Persistent oracle rollouts cached on disk: the one source of "states the myopic oracle visits".
 
 Three consumers share it: the reward calibration (2,000 tasks, thesis §5.2.4),
 the DQN's replay demonstrations (the first 500 task outcomes at seed 0,
 Appendix A.1) and the GNN dataset generator (states along myopic plans).
+The planner is the myopic oracle (`internal`, `fast-downward`) or the
+clairvoyant one (`clairvoyant-K`: each task planned jointly with the next K-1
+of the stream that come before the next world reset; only the first task's
+plan is executed), the authors' planner for the anticipatory demonstrations.
 `cached_rollout` returns the first n records of a seeded task stream; what a
 cache file already holds is replayed (no planning), the rest is planned and
 the file rewritten atomically every few tasks, so an interrupted run resumes.
@@ -12,7 +16,7 @@ runs/rollouts/restaurant-two-room-internal-seed0.json. Plans are stored as
 ground-action names with each record's task, reset seed, cost, success and
 auto flag; states are rebuilt by replay on load and checked against them.
 
-    python -m oracles.rollouts --layout two-room --tasks 2000 --seed 0 [--planner internal]
+    python -m oracles.rollouts --layout two-room --tasks 2000 --seed 0 [--planner internal|clairvoyant-3]
 """
 from __future__ import annotations
 
@@ -34,14 +38,32 @@ from .myopic import MyopicOracle, TaskRecord, rollout, type_table
 FORMAT = 1                      # bump when the file layout changes
 SAVE_EVERY_SECONDS = 10.0       # a long planner call is never lost for more than this
 SAVE_EVERY_TASKS = 50           # nor a run of quick ones
+CLAIRVOYANT_SECONDS = 60.0      # a clairvoyant window's time limit (the clairvoyant evaluations'), then the myopic chain
+
+
+def make_oracle(planner: str, time_limit: float) -> tuple[Planner, int]:
+    """(the planner a rollout plays, how many upcoming tasks it is shown) for a planner name."""
+    if planner.startswith("clairvoyant-"):
+        from .clairvoyant import ClairvoyantOracle
+        try:
+            k = int(planner.removeprefix("clairvoyant-"))
+        except ValueError:
+            k = 0
+        if k < 1:
+            raise DomainError("--planner", f"'{planner}': clairvoyant-K needs a window K of at least 1")
+        return ClairvoyantOracle(k, min(time_limit, CLAIRVOYANT_SECONDS)), k - 1
+    if planner not in ("internal", "fast-downward"):
+        raise DomainError("--planner", f"'{planner}' is not internal, fast-downward or clairvoyant-K")
+    return MyopicOracle(planner, time_limit), 0
 
 
 class RememberingOracle(Planner):
-    """A planner that answers a (state, task) it has solved before with the same plan.
+    """A planner that answers a (state, task, upcoming tasks) it has solved before with the same plan.
 
     A persistent rollout meets the same world and task again and again (on the
     canonical sequences ~25% of planned tasks, ~45% of the planning time), and
     the optimal planner is deterministic, so the answer is the one it would give.
+    A clairvoyant plan also depends on the tasks it was shown (its info's window).
     """
 
     def __init__(self, planner: Planner):
@@ -55,10 +77,11 @@ class RememberingOracle(Planner):
         """Keep a solved record's plan for its starting state and task."""
         if rec.success and rec.plan and not rec.auto:
             info = {k: v for k, v in rec.info.items() if k not in ("seconds", "remembered")}
-            self.plans.setdefault((rec.states[0], rec.task), (list(rec.plan), info))
+            upcoming = tuple(rec.info.get("window", [rec.task])[1:])
+            self.plans.setdefault((rec.states[0], rec.task, upcoming), (list(rec.plan), info))
 
     def plan(self, state: int, task, upcoming: list) -> Reply:
-        known = self.plans.get((state, task.name))
+        known = self.plans.get((state, task.name, tuple(t.name for t in upcoming)))
         if known is not None:
             return Reply(list(known[0]), {**known[1], "remembered": True})
         return self.planner.plan(state, task, upcoming)
@@ -71,20 +94,21 @@ def cache_path(model, seed: int, planner: str = "internal", cache_dir="runs/roll
 
 def cached_rollout(model, seed: int, n_tasks: int, planner: str = "internal", time_limit: float = 600.0,
                    cache_dir="runs/rollouts", progress=True) -> list[TaskRecord]:
-    """The first n_tasks records of the seeded myopic rollout, read from the cache and extended there."""
+    """The first n_tasks records of the seeded rollout of a planner, read from the cache and extended there."""
     if n_tasks < 0:
         raise DomainError("--tasks", f"{n_tasks} is not a number of tasks")
     path = cache_path(model, seed, planner, cache_dir)
     stored = load_records(model, path, seed, planner) if path.is_file() else []
     if len(stored) >= n_tasks:
         return replay(model, path, seed, stored[:n_tasks])
-    oracle = RememberingOracle(MyopicOracle(planner, time_limit))
+    inner, lookahead = make_oracle(planner, time_limit)
+    oracle = RememberingOracle(inner)
     oracle.start(model, None)
     records: list[TaskRecord] = []
-    bar = tqdm(total=n_tasks, desc=f"myopic rollout {model.layout} seed {seed}", unit="task",
+    bar = tqdm(total=n_tasks, desc=f"{planner} rollout {model.layout} seed {seed}", unit="task",
                disable=not progress)
     last_save, unsaved = time.monotonic(), 0
-    gen = _checked(rollout(model, oracle, seed, n_tasks, done=stored), path, len(stored))
+    gen = _checked(rollout(model, oracle, seed, n_tasks, done=stored, lookahead=lookahead), path, len(stored))
     start = time.perf_counter()
     for rec in gen:
         if rec.index < len(stored):
@@ -213,7 +237,7 @@ def faithful_states(model, n: int, seed: int = 0, progress: bool = True) -> list
 def main() -> None:
     p = cli.parser(__doc__.splitlines()[0], seed=True)
     p.add_argument("--tasks", type=int, default=2000, help="tasks of the stream (default: %(default)s)")
-    p.add_argument("--planner", default="internal", choices=["internal", "fast-downward"])
+    p.add_argument("--planner", default="internal", help="internal, fast-downward or clairvoyant-K (default: %(default)s)")
     p.add_argument("--time-limit", type=float, default=600.0, help="planner seconds per task (default 600)")
     p.add_argument("--cache-dir", default="runs/rollouts", help="where caches live (default: %(default)s)")
     args = p.parse_args()
@@ -222,7 +246,7 @@ def main() -> None:
     records = cached_rollout(model, args.seed, args.tasks, args.planner, args.time_limit, args.cache_dir)
     table = rows(model, records)
     n = max(len(table), 1)
-    print(f"\nmyopic rollout ({args.planner}), {model.name} {model.layout}, seed {args.seed}: "
+    print(f"\nrollout ({args.planner}), {model.name} {model.layout}, seed {args.seed}: "
           f"{len(table)} tasks, cost per task {sum(r['cost'] for r in table) / n:.1f}, "
           f"{time.perf_counter() - start:.1f}s this run")
     if table:

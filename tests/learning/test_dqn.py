@@ -4,7 +4,7 @@ import json
 import numpy as np
 import pytest
 
-from learning.dqn import Config, Trainer, domain_defaults, epsilon
+from learning.dqn import Config, Trainer, domain_defaults, epsilon, random_action
 from learning.qnet import COMPLETE, CONTINUE, TERMINAL, ValueFunction
 from learning.replay import Replay, mixed_batch
 from planning.domain.compiler import compile_domain
@@ -67,13 +67,44 @@ def test_short_training_learns_the_first_task_and_resumes(minimal, tmp_path):
         Trainer(small_config(minimal, tmp_path, goal_reward=12.0), progress=False).resume(tmp_path / "last.pt")
     with pytest.raises(DomainError, match="horizon"):
         Trainer(small_config(minimal, tmp_path, horizon="anticipatory"), progress=False).resume(tmp_path / "last.pt")
+    with pytest.raises(DomainError, match="explore='factored', not 'uniform' .pass --explore factored"):
+        Trainer(small_config(minimal, tmp_path, explore="uniform"), progress=False).resume(tmp_path / "last.pt")
+    # a checkpoint from before the exploration settings existed was trained with the old ones
+    from learning.qnet import read_checkpoint, save_checkpoint
+    old = read_checkpoint(tmp_path / "last.pt")
+    for key in ("eps_schedule", "explore", "demo_planner"):
+        del old["config"][key]
+    save_checkpoint(tmp_path / "old" / "last.pt", old)
+    with pytest.raises(DomainError, match="eps_schedule='reach', not 'time-constant' .pass --eps-schedule reach"):
+        Trainer(small_config(minimal, tmp_path / "old"), progress=False).resume(tmp_path / "old" / "last.pt")
+    Trainer(small_config(minimal, tmp_path / "old", eps_schedule="reach", explore="uniform"),
+            progress=False).resume(tmp_path / "old" / "last.pt")
 
 
-def test_epsilon_schedule_is_exponential():
-    cfg = Config()
+def test_epsilon_schedules():
+    cfg = Config()                      # the authors': 100k steps is the decay's time constant
     assert epsilon(cfg, 0) == pytest.approx(1.0)
-    assert epsilon(cfg, 50_000) == pytest.approx(0.05 ** 0.5)
-    assert epsilon(cfg, 100_000) == pytest.approx(0.05) and epsilon(cfg, 400_000) == pytest.approx(0.05)
+    assert epsilon(cfg, 100_000) == pytest.approx(0.05 + 0.95 * np.exp(-1)) == pytest.approx(0.3995, abs=1e-4)
+    assert epsilon(cfg, 300_000) == pytest.approx(0.0973, abs=1e-4) and epsilon(cfg, 500_000) > 0.05
+    reach = Config(eps_schedule="reach")
+    assert epsilon(reach, 50_000) == pytest.approx(0.05 ** 0.5)
+    assert epsilon(reach, 100_000) == pytest.approx(0.05) and epsilon(reach, 400_000) == pytest.approx(0.05)
+
+
+def test_factored_exploration_draws_the_type_first():
+    # six moves and one pick applicable: the factored draw picks the pick half the time, uniform 1/7
+    labels = np.array([[0, 0, l] for l in range(6)] + [[1, 3, 9]])
+    actions = np.arange(7)
+    rng = np.random.default_rng(0)
+    factored = [random_action(actions, labels, rng) for _ in range(4000)]
+    uniform = [random_action(actions, labels, rng, factored=False) for _ in range(4000)]
+    assert np.mean(np.equal(factored, 6)) == pytest.approx(0.5, abs=0.03)
+    assert np.mean(np.equal(uniform, 6)) == pytest.approx(1 / 7, abs=0.02)
+    assert set(factored) == set(range(7))
+    # a second head chosen among the values valid with the first: (type 2, a, b) with a in {0, 1}
+    labels = np.array([[2, 0, 0], [2, 0, 1], [2, 0, 2], [2, 1, 0]])
+    draws = [random_action(np.arange(4), labels, rng) for _ in range(4000)]
+    assert np.mean(np.equal(draws, 3)) == pytest.approx(0.5, abs=0.03)
 
 
 def test_protected_demo_fraction():
@@ -91,6 +122,8 @@ def test_layout_and_horizon_keyed_training_settings(three_room, two_room):
     assert domain_defaults(three_room, "myopic")["demo_tasks"] == 480
     assert domain_defaults(two_room, "myopic")["demo_fraction"] == 0.2
     assert domain_defaults(compile_domain(MINIMAL, None), "myopic")["gamma"] == 0.99
+    assert domain_defaults(two_room, "anticipatory")["demo_planner"] == "clairvoyant-3"       # keyed by horizon
+    assert domain_defaults(three_room, "myopic")["demo_planner"] == "internal"
 
 
 def test_rl_greedy_agent_loads_a_checkpoint_and_acts(two_room, tmp_path):

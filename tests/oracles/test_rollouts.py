@@ -120,3 +120,49 @@ def test_a_solved_state_and_task_is_answered_from_memory(two_room, direct):
     assert reply.plan == first.plan and reply.info["remembered"] and Counting.calls == 0
     assert oracle.plan(first.after, two_room.tasks.get(first.task), []).plan is None    # another world
     assert Counting.calls == 1 and len(oracle.plans) == 3          # the auto record gives no plan
+
+
+class Recording(Planner):
+    """The myopic oracle, noting the upcoming tasks it is shown."""
+
+    name, config = "recording", {}
+
+    def __init__(self):
+        self.inner, self.seen = MyopicOracle("internal", 60.0), []
+
+    def start(self, model, sequence) -> None:
+        self.inner.start(model, sequence)
+
+    def plan(self, state, task, upcoming):
+        self.seen.append([t.name for t in upcoming])
+        return self.inner.plan(state, task, upcoming)
+
+
+def test_lookahead_shows_the_next_tasks_up_to_the_world_reset(minimal):
+    from planning.world.task_stream import TaskStream
+
+    stream = TaskStream(minimal, 3)
+    drawn = [stream.next() for _ in range(8)]          # the minimal world resets every 2 tasks
+    planner = Recording()
+    planner.start(minimal, None)
+    records = list(rollout(minimal, planner, seed=3, n_tasks=6, lookahead=2))
+    planned = [r.index for r in records if not r.auto]
+    want = {i: [drawn[i + 1][0].name] if drawn[i + 1][1] is None else [] for i in range(6)}
+    assert planner.seen == [want[i] for i in planned] and [] in planner.seen and [want[0][0]] in planner.seen
+    # and none without lookahead: the same tasks, the same plans
+    again = Recording()
+    again.start(minimal, None)
+    plain = list(rollout(minimal, again, seed=3, n_tasks=6))
+    assert all(s == [] for s in again.seen) and [r.task for r in plain] == [r.task for r in records]
+
+
+def test_clairvoyant_rollout_is_cached_under_its_planner(minimal, tmp_path):
+    first = cached_rollout(minimal, 0, 6, planner="clairvoyant-2", cache_dir=tmp_path, progress=False)
+    path = cache_path(minimal, 0, "clairvoyant-2", tmp_path)
+    assert path.is_file() and json.loads(path.read_text())["config"]["K"] == 2
+    planned = [r for r in first if not r.auto]
+    assert planned and all(r.info["window"][0] == r.task and len(r.info["window"]) <= 2 for r in planned)
+    again = cached_rollout(minimal, 0, 6, planner="clairvoyant-2", cache_dir=tmp_path, progress=False)
+    assert fields(again) == fields(first)
+    with pytest.raises(DomainError, match="clairvoyant-K"):
+        cached_rollout(minimal, 0, 2, planner="clairvoyant-x", cache_dir=tmp_path, progress=False)
