@@ -16,7 +16,8 @@
   the TD target and the share of refill-water actions in the last log window; the
   greedy evaluations (and, for a myopic run, demo_q_bias: Q above the myopic
   oracle's return on the demonstrations, the divergence alarm); the largest selected
-  Q of the run and where, and the largest refill-water share (the thesis's Figure A.2);
+  Q of the run and where, and the largest refill-water share, per log window and cumulative
+  since step 0 (the authors' code plots the cumulative share: the thesis's Figure A.2);
   the wall time of the training loop (the sum of each
   log window's steps over its measured rate). A GNN run's are its summary.json
   (validation L1, best epoch, seconds per epoch). Default: results/training-<name>.json.
@@ -64,6 +65,11 @@ def key_figures(logs: list[dict], evals: list[dict], refill: str = "refill-water
     if not logs:
         return {"steps": 0}
     last = logs[-1]["step"]
+    cumulative, done, prev = {}, 0.0, 0          # refill-water actions since step 0, over the steps
+    for r in logs:
+        done += (r.get("action_share", {}).get(refill) or 0.0) * (r["step"] - prev)
+        prev = r["step"]
+        cumulative[r["step"]] = round(done / r["step"], 5) if r["step"] else 0.0
     at = {}
     for m in MILESTONES:
         if m > last:
@@ -73,6 +79,7 @@ def key_figures(logs: list[dict], evals: list[dict], refill: str = "refill-water
         at[str(m)] = {"step": row["step"], "success_last_100": row["success_rate"],
                       "selected_q": round(row["selected_q"], 3), "td_target": round(row["td_target"], 3),
                       "refill_share": row.get("action_share", {}).get(refill),
+                      "refill_share_cumulative": cumulative[row["step"]],
                       **({"greedy": _eval(ev[-1])} if ev else {})}
     peak = max(logs, key=lambda r: abs(r["selected_q"]) if r["selected_q"] == r["selected_q"] else 0.0)
     best = max(evals, key=lambda e: (e["success_rate"], e["task_return"])) if evals else None
@@ -83,9 +90,11 @@ def key_figures(logs: list[dict], evals: list[dict], refill: str = "refill-water
         prev = r["step"]
     refills = [(r.get("action_share", {}).get(refill) or 0.0, r["step"]) for r in logs]
     top = max(refills)
+    top_cumulative = max((share, step) for step, share in cumulative.items())
     return {"steps": last, "at": at, "best_greedy": _eval(best) if best else None,
             "peak_selected_q": {"step": peak["step"], "selected_q": round(peak["selected_q"], 3)},
             "peak_refill_share": {"step": top[1], "share": top[0]},
+            "peak_refill_share_cumulative": {"step": top_cumulative[1], "share": top_cumulative[0]},
             "train_hours": round(seconds / 3600, 3),
             "steps_per_s_median": _median([r["steps_per_s"] for r in logs if r.get("steps_per_s")])}
 

@@ -593,4 +593,10 @@ def test_key_figures_of_a_run():
     assert f["best_greedy"]["step"] == 200_000
     assert f["peak_selected_q"] == {"step": 100_000, "selected_q": -900.0}
     assert f["peak_refill_share"] == {"step": 250_000, "share": 0.01}        # ties: the latest window
+    # the cumulative share since step 0: windows of 25k steps at 0.01, then one at 0.04
+    logs[-1]["action_share"] = {"refill-water": 0.04}
+    f = key_figures(logs, evals)
+    assert f["at"]["100000"]["refill_share_cumulative"] == 0.01
+    assert f["at"]["250000"]["refill_share_cumulative"] == round((9 * 0.01 + 0.04) / 10, 5)
+    assert f["peak_refill_share_cumulative"] == {"step": 250_000, "share": 0.013}
     assert f["train_hours"] == round(250_000 / 100 / 3600, 3)
