@@ -255,7 +255,9 @@ def training_runs() -> list[str]:
         at = d.get("at", {})
         cell = lambda m, k, digits=2: num(at[m][k], digits) if m in at and at[m].get(k) is not None else "—"
         best = d.get("best_greedy") or {}
-        body.append([f"`{path.name}`", d.get("layout"), d.get("horizon"), d.get("seed"), f"{d.get('steps', 0):,}",
+        body.append([f"`{path.name}`", d.get("layout"), d.get("horizon"), d.get("seed"),
+                     " / ".join(str(d.get(k, "—")) for k in ("eps_schedule", "explore", "demo_planner")),
+                     f"{d.get('steps', 0):,}",
                      " / ".join(cell(m, "success_last_100") for m in ("50000", "100000", "250000", "500000")),
                      cell(str(max(map(int, at), default=0)), "selected_q", 1),
                      cell(str(max(map(int, at), default=0)), "td_target", 1),
@@ -263,20 +265,46 @@ def training_runs() -> list[str]:
                      f"{num(best.get('success_rate'), 2)} at {best.get('step', 0):,}",
                      num(best.get("demo_q_bias"), 2) if "demo_q_bias" in best else "",
                      num(d["peak_selected_q"]["selected_q"], 1),
-                     pct((d.get("peak_refill_share") or {}).get("share"), 2, False),
+                     pct((d.get("peak_refill_share") or {}).get("share"), 2, False) + " / "
+                     + pct((d.get("peak_refill_share_cumulative") or {}).get("share"), 2, False),
                      num(d.get("train_hours"), 2),
                      num(d.get("steps_per_s_median"), 0)])
     if not body:
         return ["No finished run exported yet: `python -m learning.export runs/dqn/<run>` writes "
                 "`results/training-<horizon>-<layout>-seed<N>.json` and the compact checkpoint."]
-    return table(["results file", "layout", "horizon", "seed", "steps", "success (last 100) at 50k / 100k / 250k / 500k",
+    return table(["results file", "layout", "horizon", "seed", "ε schedule / exploration / demonstrations", "steps",
+                  "success (last 100) at 50k / 100k / 250k / 500k",
                   "selected Q", "TD target", "refill share", "best greedy check", "demo_q_bias", "peak selected Q",
-                  "peak refill share", "hours", "steps/s (median)"], body) + [
+                  "peak refill share (window / cumulative)", "hours", "steps/s (median)"], body) + [
         "", "Selected Q, TD target and the share of refill-water actions are the last log window's (1,000 steps); "
             "Appendix A.2 (seed medians): success at the end two-room 0.95 anticipatory / 0.97 myopic, three-room "
             "0.93 / about 0.5; selected Q two-room about 233 / 57, three-room about 170 / 70; refill-water share "
-            "(three-room, γ = 0.97) peaks at 1.34%. "
+            "(three-room, γ = 0.97) peaks at 1.34% (cumulative since step 0, as the authors' code counts it). "
+            "Settings: the authors' (time-constant / factored / clairvoyant-3 for an anticipatory run) or this "
+            "project's earlier ones (reach / uniform / internal); see docs/design.md. "
             "`python -m learning.export runs/dqn/<run>` writes each file with the run's compact checkpoint."]
+
+
+def value_ranking() -> list[str]:
+    """Rank agreement of each value's V_AP with the exact -C_AP (`results/value-rank-*.json`, learning.value_rank)."""
+    body = []
+    for path in sorted(Path("results").glob("value-rank-*.json")):
+        d = read(path)
+        for row in (d or {}).get("values", []):
+            a = row["all"]
+            kinds = "; ".join(f"{k}: {num(b.get('spearman'), 3)}" for k, b in row.get("by_kind", {}).items())
+            body.append([f"`{path.name}`", d["layout"], f"`{row['value']}`", a["states"], num(a.get("spearman"), 3),
+                         num(a.get("kendall"), 3), pct(a.get("pair_agreement"), 1, False),
+                         num(a.get("slope_rl_per_pddl"), 4), kinds or "—"])
+    if not body:
+        return ["Not measured yet: `python -m learning.value_rank --data runs/gnn/<layout>-faithful --value CKPT ...`."]
+    return table(["results file", "layout", "value", "states", "Spearman", "Kendall", "pairs ordered right",
+                  "slope (RL per PDDL unit)", "Spearman by kind"], body) + [
+        "", "The states of a GNN dataset with their exact one-task C_AP (labelling oracle); each value's V_AP against "
+            "−C_AP. The search uses a value only to rank the terminal states it reaches, so this is the property "
+            "that matters to it. A one-task value's slope is 1/cost_scale (0.01); a multi-task value credits a lower "
+            "next-task cost over later tasks too, so its slope is larger. A GNN is scored on its own validation split. "
+            "`python -m learning.value_rank --data runs/gnn/<layout>-<variant> --value CKPT [--value CKPT ...]`."]
 
 
 def everything(layouts=LAYOUTS, checkpoint_paths=(), sha=None) -> dict[str, list[str]]:
@@ -285,6 +313,7 @@ def everything(layouts=LAYOUTS, checkpoint_paths=(), sha=None) -> dict[str, list
             "Clairvoyant-K oracle: windows": clairvoyant_windows(layouts),
             "Checkpoints": checkpoints(list(checkpoint_paths), sha),
             "Training runs (Appendix A.2)": training_runs(),
+            "How the values rank states (exact C_AP)": value_ranking(),
             "Minimal example (thesis §5.1)": minimal_example(),
             "Reward calibration (thesis §5.2.4)": calibration(layouts),
             "β selection (Appendix A.1)": beta_selection(layouts),

@@ -35,7 +35,7 @@ from planning.errors import DomainError
 from planning.world.runner import results_provenance
 
 from learning.plain import load_plain, to_half
-from learning.dqn import read_metrics
+from learning.dqn import LEGACY, read_metrics
 from learning.qnet import read_checkpoint, save_checkpoint
 
 MILESTONES = (50_000, 100_000, 250_000, 500_000)
@@ -163,6 +163,7 @@ def export(run: Path, out: Path, figures: Path | None) -> tuple[dict, dict]:
     cfg = payload.get("config", {})
     figs = {"run": str(run), "checkpoint": str(out), "checkpoint_step": payload.get("step"),
             **{k: cfg.get(k) for k in ("domain", "layout", "horizon", "seed", "steps", "gamma")},
+            **{k: cfg.get(k, was) for k, was in LEGACY.items()},
             **key_figures(logs, evals)}
     if figures is not None:
         write_json(figures, {**figs, "provenance": results_provenance(figs)})
