@@ -199,11 +199,16 @@ def training_curves(logs: dict, path) -> Path | None:
 
 
 def refill_share(logs: dict, path, action: str = "refill-water") -> Path | None:
-    """Figure A.2. logs[label] = metrics rows of one run: the share of `action` among all actions over training."""
+    """Figure A.2. logs[label] = metrics rows of one run: the share of `action` among all actions since
+    step 0 (cumulative, as the authors' code plots it; each row logs its window's share)."""
     curves = {}
     for label, rows in logs.items():
-        pts = [(r["step"], r["action_share"].get(action, 0.0)) for r in rows
-               if isinstance(r.get("action_share"), dict) and "step" in r]
+        pts, done, prev = [], 0.0, 0
+        for r in rows:
+            if isinstance(r.get("action_share"), dict) and r.get("step"):
+                done += r["action_share"].get(action, 0.0) * (r["step"] - prev)
+                prev = r["step"]
+                pts.append((r["step"], done / r["step"]))
         if pts:
             curves[label] = pts
     if not curves:
@@ -212,10 +217,10 @@ def refill_share(logs: dict, path, action: str = "refill-water") -> Path | None:
     for label, pts in curves.items():
         ax.plot(*zip(*pts), label=label)
     ax.set_xlabel("training step")
-    ax.set_ylabel(f"share of actions that are {action}")
+    ax.set_ylabel(f"share of actions since step 0: {action}")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    ax.set_title(f"Figure A.2: share of {action} actions over training", fontsize=9)
+    ax.set_title(f"Figure A.2: share of {action} among all actions so far (cumulative)", fontsize=9)
     return _save(fig, path)
 
 

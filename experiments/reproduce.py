@@ -185,7 +185,7 @@ FIGURE_TEXT = {
     "5.4": "Figure 5.4: improvement over each layout's myopic oracle per agent, ours beside the thesis's.",
     "A.1": "Figure A.1: training diagnostics: success over the last 100 tasks, task return, selected Q and TD "
            "target; median over seeds with the min–max band.",
-    "A.2": "Figure A.2: share of all actions that are refill-water over training (three-room, seed 0).",
+    "A.2": "Figure A.2: share of all actions so far that are refill-water, over training (three-room, seed 0; cumulative since step 0, as the authors' code counts it).",
     "A.4": "Figure A.4: distribution of the mean cost per task of each 50-task sequence (every seed's), per agent, "
            "sorted by median; the clairvoyant oracle is K = 3.",
     "A.5": f"Figure A.5: cumulative cost over sequence {FIGURE_A5_SEQUENCE:02d} (50 tasks) per method: median over "
