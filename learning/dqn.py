@@ -543,7 +543,11 @@ class Trainer:
         if torn:
             print(f"{self.metrics}: dropped a half-written last line (the run was stopped while writing it)",
                   file=sys.stderr)
-        keep = [row for row in rows if row.get("step", row.get("eval", {}).get("step", 0)) <= self.step]
+        steps = [row.get("step", row.get("eval", {}).get("step", 0)) for row in rows]
+        bad = next((k for k, at in enumerate(steps) if not isinstance(at, (int, float))), None)
+        if bad is not None:
+            raise DomainError(self.metrics, f"row {bad + 1} has no step; delete the file or pass --fresh to start over")
+        keep = [row for row, at in zip(rows, steps) if at <= self.step]
         write_text(self.metrics, "".join(json.dumps(row) + "\n" for row in keep))
 
 
