@@ -34,7 +34,7 @@ from planning.atomic import sha256, write_json
 from planning.errors import DomainError
 from planning.world.runner import results_provenance
 
-from learning.plain import load_plain, to_half
+from learning.plain import to_half
 from learning.dqn import LEGACY, read_metrics
 from learning.qnet import read_checkpoint, save_checkpoint
 
@@ -111,10 +111,9 @@ def _median(xs: list) -> float | None:
 
 def is_gnn_run(run: Path) -> bool:
     """True for a learning.gnn_train run folder, False for a learning.dqn one (by its best.pt)."""
-    from learning.gnn_model import KIND
+    from learning.gnn_model import is_gnn_checkpoint
 
-    payload = load_plain(run / "best.pt", "checkpoint")
-    return isinstance(payload, dict) and payload.get("kind") == KIND
+    return is_gnn_checkpoint(run / "best.pt")
 
 
 def default_names(run: Path, gnn: bool) -> tuple[str, str]:

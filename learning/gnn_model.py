@@ -89,6 +89,14 @@ def save_gnn_checkpoint(path, payload: dict) -> Path:
     return write_bytes(path, buf.getvalue())
 
 
+def is_gnn_checkpoint(path) -> bool:
+    """True for a learning.gnn_train checkpoint, False for any other checkpoint (read safely)."""
+    from learning.plain import load_plain
+
+    payload = load_plain(path, "checkpoint")
+    return isinstance(payload, dict) and payload.get("kind") == KIND
+
+
 def read_gnn_checkpoint(path) -> dict:
     """A GNN checkpoint's payload, loaded with weights_only=True; anything else is a one-line DomainError."""
     from learning.plain import from_plain, full_precision, load_plain

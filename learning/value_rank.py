@@ -42,11 +42,9 @@ from planning.world.runner import results_provenance
 
 def load_value(path, model):
     """The value of a checkpoint: a Q-network's ValueFunction, or a GNN's GNNValue (by the file's kind)."""
-    from learning.gnn_model import KIND
-    from learning.plain import load_plain
+    from learning.gnn_model import is_gnn_checkpoint
 
-    payload = load_plain(path, "checkpoint")
-    if isinstance(payload, dict) and payload.get("kind") == KIND:
+    if is_gnn_checkpoint(path):
         from learning.gnn_value import GNNValue
         return GNNValue(path, model)
     from learning.qnet import load_value_function
