@@ -24,6 +24,10 @@ dropped and counted in the row (`dropped`).
 """
 from __future__ import annotations
 
+import json
+import os
+from pathlib import Path
+
 import numpy as np
 
 from planning.errors import DomainError
@@ -33,6 +37,7 @@ from learning.gnn_value import GNNValue, model_summary
 from learning.greedy import checkpoint_run_name
 
 MAX_CLAUSES = 10
+TIME_LIMIT = 300.0           # seconds per search: a guard; on this machine every search ends well within it
 
 
 def select(costs, estimates) -> int:
@@ -119,6 +124,78 @@ def _bits(mask: int) -> list[int]:
     return [i for i in range(mask.bit_length()) if mask >> i & 1]
 
 
+class CandidateCache:
+    """The candidate plans of each (state, task), kept on disk and shared by every run that plans them alike.
+
+    The candidates depend on the state, the task, the myopic planner and the clause settings, never on
+    the model that scores them: the four seeds of a model, faithful or augmented, meet the same states
+    for long stretches (they mostly keep the myopic plan), so every run after the first replays most
+    of its planning. One JSON line per entry, appended in one write (runs in parallel can share a file;
+    an interrupted write leaves at most a half last line, which is skipped); the first line names the
+    domain files' digests and the settings, and a file of another domain or settings is a one-line error.
+    Only candidates whose searches all finished are kept (a time limit's answer is not the planner's).
+    """
+
+    FORMAT = 1
+
+    def __init__(self, model, path, settings: dict):
+        from planning.atomic import sha256
+
+        self.model, self.path = model, Path(path)
+        self.header = {"format": self.FORMAT, "domain": model.name, "layout": model.layout,
+                       "files": {k: sha256(v) for k, v in sorted(model.files.items())}, **settings}
+        self.table: dict = {}
+        self.hits = self.misses = 0
+        if self.path.is_file():
+            self._load()
+        else:
+            self._append(self.header)
+
+    def _load(self) -> None:
+        lines = self.path.read_text().split("\n")
+        try:
+            header = json.loads(lines[0])
+        except json.JSONDecodeError:
+            raise DomainError(self.path, "not a candidate cache (its first line is not JSON); delete it to replan") from None
+        if header != self.header:
+            diff = sorted(k for k in {*header, *self.header} if header.get(k) != self.header.get(k))
+            raise DomainError(self.path, f"made for another domain or settings ({', '.join(diff)} differ); "
+                                         "delete it or pass another --candidates")
+        for n, line in enumerate(lines[1:], 2):
+            if not line.strip():
+                continue
+            try:
+                e = json.loads(line)
+                plans = [[self.model.action(a) for a in p] for _, p in e["plans"]]
+                self.table[(int(e["state"], 16), e["task"])] = (
+                    [c for c, _ in e["plans"]], plans, int(e["dropped"]), int(e["in_region"]))
+            except (json.JSONDecodeError, KeyError, TypeError, ValueError) as err:
+                if n == len(lines):          # a write cut short by an interruption: planned again
+                    continue
+                raise DomainError(self.path, f"line {n} is not a candidate entry ({err}); delete the file to replan") from None
+
+    def _append(self, entry: dict) -> None:
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
+        try:
+            os.write(fd, (json.dumps(entry, separators=(",", ":")) + "\n").encode())
+        finally:
+            os.close(fd)
+
+    def get(self, state: int, task):
+        """(names, plans, dropped, in region) of the candidates, or None if never planned."""
+        hit = self.table.get((state, task.name))
+        self.hits += hit is not None
+        self.misses += hit is None
+        return hit
+
+    def put(self, state: int, task, names: list, plans: list, dropped: int, in_region: int) -> None:
+        self.table[(state, task.name)] = (names, plans, dropped, in_region)
+        actions = self.model.actions
+        self._append({"state": format(state, "x"), "task": task.name, "dropped": dropped, "in_region": in_region,
+                      "plans": [[c, [actions[a] for a in p]] for c, p in zip(names, plans)]})
+
+
 class GNNNativePlanner(Planner):
     """The GNN's Ĉ_AP scoring the myopic plan and up to 10 clause-augmented plans: cost + Ĉ_AP, lowest wins."""
 
@@ -133,18 +210,23 @@ class GNNNativePlanner(Planner):
                        help="augmented candidates per task (default: %(default)s)")
         p.add_argument("--reference", default="internal", choices=PLANNERS,
                        help="planner of the myopic candidate (default: %(default)s, exact)")
-        p.add_argument("--time-limit", type=float, default=60.0,
-                       help="seconds per plan, myopic or augmented (default: %(default)s)")
+        p.add_argument("--time-limit", type=float, default=TIME_LIMIT,
+                       help="seconds per search: the myopic plan, or all the augmented ones together (default: %(default)s)")
+        p.add_argument("--candidates", default=None,
+                       help="the candidate cache file, shared by runs that plan alike (default: "
+                            "runs/gnn/candidates/DOMAIN-LAYOUT-REFERENCE-cMAX.jsonl; 'none': plan every task)")
         p.add_argument("--exact-labels", action="store_true",
                        help="also label every scored candidate with the exact C_AP (oracles.labelling), for the record")
 
     @classmethod
     def from_args(cls, args, model) -> "GNNNativePlanner":
-        return cls(model, args.model, args.max_clauses, args.reference, args.time_limit, args.exact_labels)
+        return cls(model, args.model, args.max_clauses, args.reference, args.time_limit, args.exact_labels,
+                   candidates=args.candidates)
 
     def __init__(self, model, gnn, max_clauses: int = MAX_CLAUSES, reference: str = "internal",
-                 time_limit: float = 60.0, exact_labels: bool = False, estimate=None):
-        """`estimate(states) -> Ĉ_AP array`: the scorer (default: the checkpoint's GNNValue.c_ap)."""
+                 time_limit: float = TIME_LIMIT, exact_labels: bool = False, estimate=None, candidates: str | None = "none"):
+        """`estimate(states) -> Ĉ_AP array`: the scorer (default: the checkpoint's GNNValue.c_ap).
+        `candidates`: the CandidateCache file (None: the default one; "none": no cache)."""
         from oracles.myopic import MyopicOracle
 
         from learning.gnn_dataset import ClauseLibrary, DatasetConfig
@@ -171,6 +253,12 @@ class GNNNativePlanner(Planner):
 
         self.bm = BatchedModel(model)
         self.hmax = HMax(model, self.bm)
+        settings = {"reference": reference, "max_clauses": self.max_clauses, "min_clause_cost": self.min_cost,
+                    "clauses": len(self.library)}
+        if candidates is None:
+            candidates = f"runs/gnn/candidates/{model.name}-{model.layout}-{reference}-c{self.max_clauses}.jsonl"
+        self.cache = None if candidates == "none" else CandidateCache(model, candidates, settings)
+        self.config["candidates"] = None if self.cache is None else str(self.cache.path)
 
     def start(self, model, sequence) -> None:
         if model is not self.model:
@@ -197,10 +285,11 @@ class GNNNativePlanner(Planner):
         path = self._path(state, plan)
         return self._first_hold(path, task) == len(plan) and clause.satisfied(path[-1])
 
-    def clause_plans(self, state: int, task, myopic_path: list[int]) -> tuple[list, int, int]:
-        """[(clause text, plan)] of the augmented candidates, how many were dropped, how many clauses were in the region."""
+    def clause_plans(self, state: int, task, myopic_path: list[int]) -> tuple[list, int, int, bool]:
+        """[(clause text, plan)] of the augmented candidates, how many were dropped, how many clauses
+        were in the region, and whether every search finished (no time limit cut one short)."""
         from learning.gnn_dataset import JointGoal
-        from planning.search.optimal import optimal_plan
+        from planning.search.optimal import optimal_plans
 
         region = self.region.around(myopic_path)
         eligible = self.library.eligible(state, self.hmax, self.bm, self.min_cost)
@@ -212,41 +301,67 @@ class GNNNativePlanner(Planner):
             cost = self.hmax.literal_costs(self.bm.pack([state]), lits)[0]
             relaxed = {k: int(cost[ls].max()) for k, ls in zip(inside, lits)}
             inside.sort(key=lambda k: (relaxed[k], k))
-        out, dropped = [], 0
-        for k in inside[: self.max_clauses]:
-            pos, neg = self.library.masks[k]
-            clause = ClauseGoal(pos, neg, self.library.text(k))
-            plan = optimal_plan(self.bm, state, JointGoal(task, pos, neg), time_limit=self.time_limit).plan
+        chosen = inside[: self.max_clauses]
+        clauses = [ClauseGoal(*self.library.masks[k], self.library.text(k)) for k in chosen]
+        joint = optimal_plans(self.bm, state, [JointGoal(task, *self.library.masks[k]) for k in chosen],
+                              time_limit=self.time_limit,       # one A* for all of them
+                              prefer=lambda i, plan: self._in_full(state, plan, task, clauses[i]))
+        out, dropped, complete = [], 0, all(r.complete for r in joint)
+        for clause, r in zip(clauses, joint):
+            plan = r.plan
             if plan is not None and not self._in_full(state, plan, task, clause):
-                first, plan = optimal_plan(self.bm, state, clause, time_limit=self.time_limit).plan, None
-                if first:
-                    p1 = self._path(state, first)
-                    hold = self._first_hold(p1, task)
-                    if hold is None:
-                        rest = optimal_plan(self.bm, p1[-1], task, time_limit=self.time_limit).plan
-                        plan = list(first) + list(rest) if rest is not None else None
-                    elif hold == len(first):
-                        plan = list(first)
-                if plan is not None and not self._in_full(state, plan, task, clause):
-                    plan = None
+                plan, finished = self._clause_then_task(state, task, clause)
+                complete = complete and finished
             if plan is None:
                 dropped += 1
                 continue
             out.append((clause.name, list(plan)))
-        return out, dropped, len(inside)
+        return out, dropped, len(inside), complete
 
-    def plan(self, state: int, task, upcoming: list) -> Reply:
+    def _clause_then_task(self, state: int, task, clause) -> tuple[list | None, bool]:
+        """The clause's optimal plan, then the task's from there (for a joint plan that completes the
+        task early), if the runner executes it in full; and whether both searches finished."""
+        from planning.search.optimal import optimal_plan
+
+        first = optimal_plan(self.bm, state, clause, time_limit=self.time_limit)
+        if not first.plan:
+            return None, first.complete
+        p1 = self._path(state, first.plan)
+        hold = self._first_hold(p1, task)
+        if hold is None:
+            rest = optimal_plan(self.bm, p1[-1], task, time_limit=self.time_limit)
+            if rest.plan is None:
+                return None, rest.complete
+            plan = list(first.plan) + list(rest.plan)
+        else:
+            plan = list(first.plan) if hold == len(first.plan) else None
+        return (plan if plan is not None and self._in_full(state, plan, task, clause) else None), True
+
+    def candidates(self, state: int, task, upcoming: list):
+        """(names, plans, dropped, in region) of a task's candidates, the myopic plan first; or the
+        myopic planner's status (a string) when it found no plan."""
+        known = self.cache.get(state, task) if self.cache is not None else None
+        if known is not None:
+            return known
         ref = self.reference.plan(state, task, upcoming)
         if ref.plan is None:
-            return Reply(None, {"status": ref.info.get("status", "unsolvable")})
+            return ref.info.get("status", "unsolvable")
         path = self._path(state, ref.plan)
         cut = self._first_hold(path, task)
         if cut is None:
             raise DomainError(task.name, "the myopic plan does not complete the task")
-        myopic = list(ref.plan[:cut])
-        augmented, dropped, in_region = self.clause_plans(state, task, path[: cut + 1])
+        augmented, dropped, in_region, complete = self.clause_plans(state, task, path[: cut + 1])
         names = ["myopic"] + [c for c, _ in augmented]
-        plans = [myopic] + [p for _, p in augmented]
+        plans = [list(ref.plan[:cut])] + [p for _, p in augmented]
+        if complete and self.cache is not None:
+            self.cache.put(state, task, names, plans, dropped, in_region)
+        return names, plans, dropped, in_region
+
+    def plan(self, state: int, task, upcoming: list) -> Reply:
+        found = self.candidates(state, task, upcoming)
+        if isinstance(found, str):
+            return Reply(None, {"status": found})
+        names, plans, dropped, in_region = found
         costs = [self._cost(p) for p in plans]
         ends = [task.consume(self._path(state, p)[-1]) for p in plans]
         est = np.asarray(self.estimate(ends), dtype=float)

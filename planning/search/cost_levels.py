@@ -43,13 +43,14 @@ class CostLevels:
         self._h_table = StateTable(bm.n_words)
         self._parents: list[np.ndarray] = []
         self._actions: list[np.ndarray] = []
+        self._version = 0               # bumped by rescore(); each open entry keeps the one it was scored under
         start_row = bm.pack([start])
         f0 = 0 if heuristic is None else int(heuristic(start_row)[0])
         self.f = f0                     # the level being closed: a lower bound on any goal's cost
         # The time limit bounds the search; what the heuristic builds on its first call (pattern
         # databases, kept for later searches) is done before the clock starts.
         self.deadline = None if time_limit is None else time.perf_counter() + time_limit
-        self._open: dict[int, list] = {f0: [(start_row, np.array([-1]), np.array([-1]), np.array([0]))]}
+        self._open: dict[int, list] = {f0: [(start_row, np.array([-1]), np.array([-1]), np.array([0]), 0)]}
         self._heap = [f0]
 
     def __iter__(self):
@@ -62,8 +63,7 @@ class CostLevels:
             if f >= INF:
                 break
             self.f = f
-            rows, parents, actions, g = (np.concatenate(x) for x in zip(*self._open.pop(f)))
-            rows, parents, actions, g, keys = self._new_states(rows, parents, actions, g)
+            rows, parents, actions, g, keys = self._pop(f)
             if not len(rows):
                 continue
             ids = np.arange(self.closed, self.closed + len(rows))
@@ -84,6 +84,40 @@ class CostLevels:
             plan.append(int(actions[state_id]))
             state_id = int(parents[state_id])
         return plan[::-1]
+
+    def rescore(self) -> None:
+        """The heuristic has risen (still admissible; e.g. a multi-goal search reached one of its goals):
+        states opened before are scored again when their level comes, and wait for a later level if their f rose."""
+        self._version += 1
+        self._h_table = StateTable(self.bm.n_words)
+
+    def _pop(self, f):
+        """The new states of level f: those scored under an older heuristic whose f has risen go to their new level."""
+        chunks = self._open.pop(f)
+        stale = [c[:4] for c in chunks if c[4] < self._version]
+        now = [c[:4] for c in chunks if c[4] == self._version]
+        if stale and self.h is not None:
+            rows, parents, actions, g, keys = self._new_states(*(np.concatenate(x) for x in zip(*stale)))
+            h = self._cached_h(keys, rows)
+            f_new = np.where(h >= INF, INF, np.maximum(g + h, f))
+            later = f_new > f
+            self._push(f_new[later], rows[later], parents[later], actions[later], g[later])
+            now.append((rows[~later], parents[~later], actions[~later], g[~later]))
+        else:
+            now += stale
+        return self._new_states(*(np.concatenate(x) for x in zip(*now)))
+
+    def _push(self, f_child, child, parent_ids, action, g_child) -> None:
+        """Open states at their levels (infinite f: never)."""
+        for f in np.unique(f_child):
+            if f >= INF:
+                continue
+            sel = f_child == f
+            level = int(f)
+            if level not in self._open:
+                self._open[level] = []
+                heapq.heappush(self._heap, level)
+            self._open[level].append((child[sel], parent_ids[sel], action[sel], g_child[sel], self._version))
 
     def _new_states(self, rows, parents, actions, g):
         """The rows not yet closed at a g as small, one per distinct state (its smallest g), with keys."""
@@ -119,12 +153,4 @@ class CostLevels:
         else:                                      # pathmax: h may be inconsistent (LM-cut)
             h = self._cached_h(keys[keep], child)
             f_child = np.where(h >= INF, INF, np.maximum(g_child + h, f_parent))
-        for f in np.unique(f_child):
-            if f >= INF:
-                continue
-            sel = f_child == f
-            level = int(f)
-            if level not in self._open:
-                self._open[level] = []
-                heapq.heappush(self._heap, level)
-            self._open[level].append((child[sel], ids[parent[sel]], action[sel], g_child[sel]))
+        self._push(f_child, child, ids[parent], action, g_child)

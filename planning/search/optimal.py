@@ -66,25 +66,69 @@ def optimal_plan(bm, state: int, task, max_states: int | None = None,
     `task` is anything with `bindings` (a DNF of Ops), e.g. a task with an extra clause.
     plan is None if no plan exists (complete=True) or a limit stopped the search (complete=False).
     """
+    return optimal_plans(bm, state, [task], max_states, time_limit, heuristic)[0]
+
+
+PREFER_TRIES = 16
+
+
+def optimal_plans(bm, state: int, goals: list, max_states: int | None = None,
+                  time_limit: float | None = None, heuristic: str = "pdb", prefer=None) -> list[SearchResult]:
+    """An optimal plan for each of several goals from one A* (e.g. a task with each of ten clauses).
+
+    The heuristic is the minimum over the goals still unreached of their admissible estimates,
+    so it is admissible for every one of them; the first f-level holding a goal state of goal k
+    holds one at k's optimal cost (CostLevels' pathmax and reopening keep this for an
+    inconsistent heuristic too), and the search stops when every goal is reached. Levels
+    are shared, so one search costs far less than one per goal when the goals lie close together.
+    When a goal is reached the remaining goals' minimum can only rise: the states already open
+    are scored again when their level comes (CostLevels.rescore) and wait if their f rose.
+    `prefer(k, plan) -> bool` breaks ties among goal k's optimal plans: of the goal states closed at
+    k's optimal cost on that level (at most PREFER_TRIES of them), the first whose plan it accepts is
+    returned; if it accepts none, the first. Without it, any optimal plan.
+    """
     from planning.domain.batched import goal_arrays, satisfied
     from planning.search.cost_levels import CostLevels
 
-    h = task_heuristic(bm, task, heuristic)
-    pos, neg = goal_arrays(bm, task)
+    if not goals:
+        return []
+    per_goal = goals_heuristic(bm, goals, heuristic)
+    open_ = np.ones(len(goals), dtype=bool)
+
+    def h(batch):
+        return per_goal(batch)[:, open_].min(1)
+
+    arrays = [goal_arrays(bm, g) for g in goals]
+    out: list[SearchResult | None] = [None] * len(goals)
     levels = CostLevels(bm, state, max_states, time_limit, heuristic=h)
+    unreached = len(goals)
     for _, rows, ids, g in levels:
-        hit = np.flatnonzero(satisfied(rows, pos, neg))
-        if len(hit):
-            i = hit[np.argmin(g[hit])]
-            return SearchResult(levels.plan_to(int(ids[i])), int(g[i]), levels.closed, True)
-    return SearchResult(None, None, levels.closed, levels.exhausted)
+        for k in np.flatnonzero(open_):
+            hit = np.flatnonzero(satisfied(rows, *arrays[k]))
+            if len(hit):
+                best = hit[g[hit] == g[hit].min()]
+                plan = None
+                for i in best[: PREFER_TRIES if prefer is not None else 1]:
+                    candidate = levels.plan_to(int(ids[i]))
+                    plan = candidate if plan is None else plan       # the first, unless one is preferred
+                    if prefer is None or prefer(int(k), candidate):
+                        plan = candidate
+                        break
+                out[k] = SearchResult(plan, int(g[best[0]]), levels.closed, True)
+                open_[k] = False
+        if not open_.any():
+            break
+        if unreached != int(open_.sum()):
+            unreached = int(open_.sum())
+            levels.rescore()                 # the minimum is over fewer goals now: states opened before may wait
+    return [r if r is not None else SearchResult(None, None, levels.closed, levels.exhausted) for r in out]
 
 
 _RELAXED: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()   # per BatchedModel: its HMax and LMCut
 
 
-def task_heuristic(bm, task, heuristic: str = "pdb"):
-    """h(batch) -> (N,) admissible costs to the task's goal; the tables behind it are built once per model."""
+def goals_heuristic(bm, goals: list, heuristic: str = "pdb"):
+    """h(batch) -> (N, G) admissible costs to each goal; the tables behind it are built once per model."""
     from planning.heuristics import choose
     from planning.heuristics.hmax import HMax, goal_literals
     from planning.heuristics.lmcut import LMCut
@@ -93,10 +137,10 @@ def task_heuristic(bm, task, heuristic: str = "pdb"):
     heuristic = choose(heuristic, bm.model, "task")
     if heuristic == "pdb":
         pdb = pattern_databases(bm.model, bm.n_words)
-        return lambda batch: pdb.per_goal(batch, [task])[:, 0]
+        return lambda batch: pdb.per_goal(batch, goals)
     if bm not in _RELAXED:
         hmax = HMax(bm.model, bm)
         _RELAXED[bm] = {"hmax": hmax, "lmcut": LMCut(bm.model, bm, hmax)}
     h = _RELAXED[bm]["hmax" if heuristic == "hmax" else "lmcut"]
-    conjs = goal_literals(bm.model, task)
-    return lambda batch: h(batch, conjs)
+    conjs = [goal_literals(bm.model, g) for g in goals]
+    return lambda batch: np.stack([h(batch, c) for c in conjs], axis=1)

@@ -153,12 +153,32 @@ def test_native_selection_with_a_stub_estimator(minimal, monkeypatch, bonus, cho
     agent.start(minimal, None)
     myopic = agent.reference.plan(state, task, []).plan
     detour = _detour(minimal, state, task, myopic)
-    monkeypatch.setattr(agent, "clause_plans", lambda s, t, p: ([("detour", detour)], 0, 1))
+    monkeypatch.setattr(agent, "clause_plans", lambda s, t, p: ([("detour", detour)], 0, 1, True))
     r = agent.plan(state, task, [])
     assert r.info["chosen"] == chosen and r.info["candidates"] == 2
     assert r.plan == (detour if chosen == "detour" else myopic)
     assert r.info["candidate_costs"] == [len(myopic), len(myopic) + 2]
     assert len(seen) == 1 and seen[0] == [task.consume(agent._path(state, p)[-1]) for p in (myopic, detour)]
+
+
+def test_candidate_cache_replays_what_was_planned(minimal, monkeypatch, tmp_path):
+    """A second agent on the same cache file plans nothing and replies alike; a half-written last line is
+    skipped; a file made with other settings is a one-line error naming it."""
+    task, path = minimal.tasks.get("clear(c)"), tmp_path / "candidates.jsonl"
+    zero = lambda states: np.zeros(len(states))
+    first = GNNNativePlanner(minimal, "stub", estimate=zero, candidates=str(path))
+    first.start(minimal, None)
+    r1 = first.plan(minimal.init, task, [])
+    assert first.cache.misses == 1 and len(path.read_text().splitlines()) == 2       # the header and the entry
+    again = GNNNativePlanner(minimal, "stub", estimate=zero, candidates=str(path))
+    again.start(minimal, None)
+    monkeypatch.setattr(again.reference, "plan", lambda *a: pytest.fail("planned a cached task"))
+    r2 = again.plan(minimal.init, task, [])
+    assert (r2.plan, r2.info) == (r1.plan, r1.info) and again.cache.hits == 1
+    path.write_text(path.read_text() + '{"state": "1f", "ta')
+    assert len(GNNNativePlanner(minimal, "stub", estimate=zero, candidates=str(path)).cache.table) == 1
+    with pytest.raises(DomainError, match="candidates.jsonl.*max_clauses"):
+        GNNNativePlanner(minimal, "stub", max_clauses=3, estimate=zero, candidates=str(path))
 
 
 def test_candidate_region_is_the_myopic_path_plus_one_move(two_room):

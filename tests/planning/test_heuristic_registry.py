@@ -6,7 +6,7 @@ from planning.domain.batched import BatchedModel
 from planning.errors import DomainError
 from planning.heuristics import HEURISTICS, choose, names
 from planning.search.joint import JointSearch
-from planning.search.optimal import optimal_plan, task_heuristic
+from planning.search.optimal import goals_heuristic, optimal_plan
 from tests.examples import START_COSTS
 
 TASK = "make-coffee(servingtable)"
@@ -47,4 +47,4 @@ def test_a_row_names_its_searches_and_falls_back_where_unsupported(minimal, two_
 
 def test_unknown_heuristic_is_a_one_line_error(two_room):
     with pytest.raises(DomainError, match="'pbd' is not one of pdb, lmcut, hmax"):
-        task_heuristic(BatchedModel(two_room), two_room.tasks.get(TASK), "pbd")
+        goals_heuristic(BatchedModel(two_room), [two_room.tasks.get(TASK)], "pbd")

@@ -5,7 +5,7 @@ import pytest
 from planning.domain.batched import BatchedModel
 from planning.external.fast_downward import replay_cost
 from planning.heuristics.hmax import HMax, goal_literals
-from planning.search.optimal import optimal_plan, uniform_cost_search
+from planning.search.optimal import optimal_plan, optimal_plans, uniform_cost_search
 from tests.conftest import random_walk_states
 from tests.examples import START_COSTS
 
@@ -28,6 +28,26 @@ def test_astar_equals_uniform_cost_search(two_room):
         if exact.plan is None:
             continue
         assert optimal_plan(bm, states[i], task).cost == exact.cost
+
+
+def test_one_search_for_many_goals_gives_each_its_optimal_plan(two_room):
+    """optimal_plans: a task with each of several clauses, one A*: every cost is the single search's, every
+    plan reaches its goal at that cost, and a goal that is never reached has no plan."""
+    from learning.gnn_dataset import ClauseLibrary, JointGoal
+    bm = BatchedModel(two_room)
+    library = ClauseLibrary(two_room, 0)
+    task = two_room.tasks.get("make-coffee(servingtable)")
+    goals = [JointGoal(task, *library.masks[k]) for k in range(0, len(library), max(1, len(library) // 4))][:4]
+    together = optimal_plans(bm, two_room.init, goals)
+    alone = [optimal_plan(bm, two_room.init, g) for g in goals]
+    assert [r.cost for r in together] == [r.cost for r in alone] and all(r.cost is not None for r in alone)
+    assert len({r.cost for r in alone}) > 1                     # goals at different depths: the rescoring path
+    for g, r in zip(goals, together):
+        assert replay_cost(two_room, two_room.init, r.plan, g) == r.cost
+    tried = []
+    picky = optimal_plans(bm, two_room.init, goals[:2], prefer=lambda k, plan: tried.append(k) or False)
+    assert [r.cost for r in picky] == [r.cost for r in alone[:2]] and set(tried) == {0, 1}
+    assert optimal_plans(bm, two_room.init, []) == []
 
 
 def test_hmax_is_admissible_on_the_start_state(three_room):
