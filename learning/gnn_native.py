@@ -253,12 +253,15 @@ class GNNNativePlanner(Planner):
 
         self.bm = BatchedModel(model)
         self.hmax = HMax(model, self.bm)
+        from learning.gnn_dataset import JOINT_HEURISTIC
+
         settings = {"reference": reference, "max_clauses": self.max_clauses, "min_clause_cost": self.min_cost,
-                    "clauses": len(self.library)}
+                    "clauses": len(self.library), "joint_heuristic": JOINT_HEURISTIC}
         if candidates is None:
             candidates = f"runs/gnn/candidates/{model.name}-{model.layout}-{reference}-c{self.max_clauses}.jsonl"
         self.cache = None if candidates == "none" else CandidateCache(model, candidates, settings)
         self.config["candidates"] = None if self.cache is None else str(self.cache.path)
+        self.config["joint_heuristic"] = JOINT_HEURISTIC
 
     def start(self, model, sequence) -> None:
         if model is not self.model:
@@ -288,7 +291,7 @@ class GNNNativePlanner(Planner):
     def clause_plans(self, state: int, task, myopic_path: list[int]) -> tuple[list, int, int, bool]:
         """[(clause text, plan)] of the augmented candidates, how many were dropped, how many clauses
         were in the region, and whether every search finished (no time limit cut one short)."""
-        from learning.gnn_dataset import JointGoal
+        from learning.gnn_dataset import JOINT_HEURISTIC, JointGoal
         from planning.search.optimal import optimal_plans
 
         region = self.region.around(myopic_path)
@@ -304,7 +307,7 @@ class GNNNativePlanner(Planner):
         chosen = inside[: self.max_clauses]
         clauses = [ClauseGoal(*self.library.masks[k], self.library.text(k)) for k in chosen]
         joint = optimal_plans(self.bm, state, [JointGoal(task, *self.library.masks[k]) for k in chosen],
-                              time_limit=self.time_limit,       # one A* for all of them
+                              time_limit=self.time_limit, heuristic=JOINT_HEURISTIC,      # one A* for all of them
                               prefer=lambda i, plan: self._in_full(state, plan, task, clauses[i]))
         out, dropped, complete = [], 0, all(r.complete for r in joint)
         for clause, r in zip(clauses, joint):
@@ -321,9 +324,10 @@ class GNNNativePlanner(Planner):
     def _clause_then_task(self, state: int, task, clause) -> tuple[list | None, bool]:
         """The clause's optimal plan, then the task's from there (for a joint plan that completes the
         task early), if the runner executes it in full; and whether both searches finished."""
+        from learning.gnn_dataset import JOINT_HEURISTIC
         from planning.search.optimal import optimal_plan
 
-        first = optimal_plan(self.bm, state, clause, time_limit=self.time_limit)
+        first = optimal_plan(self.bm, state, clause, time_limit=self.time_limit, heuristic=JOINT_HEURISTIC)
         if not first.plan:
             return None, first.complete
         p1 = self._path(state, first.plan)

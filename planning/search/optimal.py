@@ -92,11 +92,11 @@ def optimal_plans(bm, state: int, goals: list, max_states: int | None = None,
 
     if not goals:
         return []
-    per_goal = goals_heuristic(bm, goals, heuristic)
+    nearest = goals_heuristic(bm, goals, heuristic)
     open_ = np.ones(len(goals), dtype=bool)
 
     def h(batch):
-        return per_goal(batch)[:, open_].min(1)
+        return nearest(batch, open_)
 
     arrays = [goal_arrays(bm, g) for g in goals]
     out: list[SearchResult | None] = [None] * len(goals)
@@ -128,19 +128,25 @@ _RELAXED: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()   # per Batc
 
 
 def goals_heuristic(bm, goals: list, heuristic: str = "pdb"):
-    """h(batch) -> (N, G) admissible costs to each goal; the tables behind it are built once per model."""
+    """h(batch, open) -> (N,) an admissible cost to the nearest of the goals marked open (a bool mask);
+    the tables behind it are built once per model. PDBs: the minimum of the goals' estimates; LM-cut
+    and h_max: one computation for the open goals' conjunctions joined by "or"; "pdb+lmcut": the larger
+    of the two."""
     from planning.heuristics import choose
     from planning.heuristics.hmax import HMax, goal_literals
     from planning.heuristics.lmcut import LMCut
     from planning.heuristics.pdb import pattern_databases
 
+    if "+" in heuristic:                     # the maximum of admissible estimates: admissible, and as good as the best
+        parts = [goals_heuristic(bm, goals, h) for h in heuristic.split("+")]
+        return lambda batch, open_: np.max([h(batch, open_) for h in parts], axis=0)
     heuristic = choose(heuristic, bm.model, "task")
     if heuristic == "pdb":
         pdb = pattern_databases(bm.model, bm.n_words)
-        return lambda batch: pdb.per_goal(batch, goals)
+        return lambda batch, open_: pdb.per_goal(batch, goals)[:, open_].min(1)
     if bm not in _RELAXED:
         hmax = HMax(bm.model, bm)
         _RELAXED[bm] = {"hmax": hmax, "lmcut": LMCut(bm.model, bm, hmax)}
     h = _RELAXED[bm]["hmax" if heuristic == "hmax" else "lmcut"]
     conjs = [goal_literals(bm.model, g) for g in goals]
-    return lambda batch: np.stack([h(batch, c) for c in conjs], axis=1)
+    return lambda batch, open_: h(batch, [c for k in np.flatnonzero(open_) for c in conjs[k]])

@@ -47,6 +47,7 @@ def test_one_search_for_many_goals_gives_each_its_optimal_plan(two_room):
     tried = []
     picky = optimal_plans(bm, two_room.init, goals[:2], prefer=lambda k, plan: tried.append(k) or False)
     assert [r.cost for r in picky] == [r.cost for r in alone[:2]] and set(tried) == {0, 1}
+    assert [r.cost for r in optimal_plans(bm, two_room.init, goals, heuristic="pdb+lmcut")] == [r.cost for r in alone]
     assert optimal_plans(bm, two_room.init, []) == []
 
 
