@@ -242,7 +242,33 @@ def benchmarks() -> list[str]:
                 "runs/gnn/<layout>-<variant>`: the model on its own run's validation split; the exact C_AP is the "
                 "labelling oracle's. The authors' three-room runs reached a validation L1 of about 50. *s/epoch*: "
                 "the training run's (`results/training-gnn-*.json`), at whatever load the machine had."]
-    return out
+    return out + native_candidates()
+
+
+def native_candidates() -> list[str]:
+    """The GNN's estimate on the candidates gnn-native scored, against their exact C_AP (runs with --exact-labels)."""
+    from learning.gnn_native import candidate_accuracy
+
+    body = []
+    for path in sorted(Path("results").glob("gnn-native-*.json")):
+        d = read(path)
+        a = candidate_accuracy(d.get("per_task", [])) if d else None
+        if a is None:
+            continue
+        seconds = [r["seconds"] for r in d["per_task"] if "seconds" in r]
+        body.append([f"`{path.name}`", d["layout"], a["tasks"], a["candidates"], num(a["mae"], 1), num(a["spearman"], 3),
+                     pct(a["within_task_pairs_right"], 1, False), pct(a["same_choice_as_exact"], 1, False),
+                     num(a["mean_excess"], 1), num(sum(seconds) / len(seconds) if seconds else None, 1)])
+    if not body:
+        return []
+    return ["", "### GNN estimate on the candidates gnn-native scored", ""] + table(
+        ["results file", "layout", "tasks", "candidates", "MAE", "Spearman", "pairs in a task ordered right",
+         "same choice as exact C_AP", "mean excess", "s/task (incl. labels)"], body) + [
+        "", "An evaluation run with `--exact-labels` labels every scored candidate's end state with the exact C_AP "
+            "(oracles.labelling). *Same choice*: cost + exact C_AP picks the candidate cost + Ĉ_AP picked; *mean "
+            "excess*: how much more the chosen candidate's cost + exact C_AP is than the best one's, per task (PDDL "
+            "units). s/task counts the candidate planning (once per state and task; later runs read the shared "
+            "candidate cache) and the exact labels."]
 
 
 def training_runs() -> list[str]:

@@ -36,15 +36,15 @@ def gnn(minimal, tmp_path_factory):
 
 ARGS = {"rl-greedy": ["--checkpoint", "{ckpt}"], "rl-guided": ["--checkpoint", "{ckpt}", "--budget", "50"],
         "clairvoyant": ["--K", "2", "--time-limit", "30"], "myopic-oracle": ["--planner", "internal"],
-        "gnn-native": ["--model", "{gnn}"], "gnn-guided": ["--model", "{gnn}", "--budget", "50"]}
+        "gnn-native": ["--model", "{gnn}", "--candidates", "{tmp}/candidates.jsonl"], "gnn-guided": ["--model", "{gnn}", "--budget", "50"]}
 
 
 @pytest.mark.parametrize("name", list(AGENTS))
-def test_agent_builds_from_its_options_and_plays(minimal, checkpoint, gnn, name):
+def test_agent_builds_from_its_options_and_plays(minimal, checkpoint, gnn, name, tmp_path):
     cls = agent_class(name)
     p = argparse.ArgumentParser()
     cls.options(p)
-    args = p.parse_args([a.format(ckpt=checkpoint, gnn=gnn) for a in ARGS.get(name, [])])
+    args = p.parse_args([a.format(ckpt=checkpoint, gnn=gnn, tmp=tmp_path) for a in ARGS.get(name, [])])
     agent = cls.from_args(args, minimal)
     assert agent.name.startswith(name.split("-")[0]) and isinstance(agent.config, dict)
     assert default_out(agent, minimal).startswith("results/") and default_out(agent, minimal).endswith(".json")

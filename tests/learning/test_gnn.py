@@ -10,7 +10,7 @@ from conftest import random_walk_states
 from learning.gnn_dataset import DatasetConfig, label_states, load_dataset, save_dataset
 from learning.gnn_model import (THESIS_FEATURES, THESIS_PARAMETERS, GNNCostModel, load_gnn, parameter_count,
                                 read_gnn_checkpoint, save_gnn_checkpoint)
-from learning.gnn_native import GNNNativePlanner, Region, select
+from learning.gnn_native import GNNNativePlanner, Region, candidate_accuracy, select
 from learning.gnn_train import TrainConfig, build_model, evaluate_l1, split, train
 from learning.gnn_value import GNNValue
 from learning.graph import GraphEncoder
@@ -179,6 +179,18 @@ def test_candidate_cache_replays_what_was_planned(minimal, monkeypatch, tmp_path
     assert len(GNNNativePlanner(minimal, "stub", estimate=zero, candidates=str(path)).cache.table) == 1
     with pytest.raises(DomainError, match="candidates.jsonl.*max_clauses"):
         GNNNativePlanner(minimal, "stub", max_clauses=3, estimate=zero, candidates=str(path))
+
+
+def test_candidate_accuracy_against_exact_labels():
+    """Task 1: the estimate prefers the detour (20 + 50 < 10 + 100), the exact labels the myopic plan
+    (10 + 100 < 20 + 200): a wrong choice costing 110. Task 2: both pick the myopic plan."""
+    rows = [{"c_ap_hat": [100, 50], "c_ap_exact": [100, 200], "candidate_costs": [10, 20]},
+            {"c_ap_hat": [10, 30], "c_ap_exact": [12, 28], "candidate_costs": [5, 5]},
+            {"c_ap_hat": [7], "candidate_costs": [3]}]                  # no exact labels: not counted
+    a = candidate_accuracy(rows)
+    assert a["tasks"] == 2 and a["candidates"] == 4 and a["mae"] == 38.5
+    assert a["within_task_pairs_right"] == 0.5 and a["same_choice_as_exact"] == 0.5 and a["mean_excess"] == 55.0
+    assert candidate_accuracy(rows[2:]) is None
 
 
 def test_candidate_region_is_the_myopic_path_plus_one_move(two_room):
