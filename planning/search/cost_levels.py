@@ -77,8 +77,9 @@ class CostLevels:
 
     def plan_to(self, state_id: int) -> list[int]:
         """The actions from the start to a closed state."""
-        parents = np.concatenate(self._parents)
-        actions = np.concatenate(self._actions)
+        if len(self._parents) > 1:          # joined once: a multi-goal search asks for several plans per level
+            self._parents, self._actions = [np.concatenate(self._parents)], [np.concatenate(self._actions)]
+        parents, actions = self._parents[0], self._actions[0]
         plan = []
         while parents[state_id] >= 0:
             plan.append(int(actions[state_id]))

@@ -101,25 +101,21 @@ def optimal_plans(bm, state: int, goals: list, max_states: int | None = None,
     arrays = [goal_arrays(bm, g) for g in goals]
     out: list[SearchResult | None] = [None] * len(goals)
     levels = CostLevels(bm, state, max_states, time_limit, heuristic=h)
-    unreached = len(goals)
     for _, rows, ids, g in levels:
+        reached = False
         for k in np.flatnonzero(open_):
             hit = np.flatnonzero(satisfied(rows, *arrays[k]))
             if len(hit):
                 best = hit[g[hit] == g[hit].min()]
-                plan = None
-                for i in best[: PREFER_TRIES if prefer is not None else 1]:
-                    candidate = levels.plan_to(int(ids[i]))
-                    plan = candidate if plan is None else plan       # the first, unless one is preferred
-                    if prefer is None or prefer(int(k), candidate):
-                        plan = candidate
-                        break
+                tries = (levels.plan_to(int(ids[i])) for i in best[: PREFER_TRIES if prefer is not None else 1])
+                plan = next(tries)
+                if prefer is not None and not prefer(int(k), plan):
+                    plan = next((p for p in tries if prefer(int(k), p)), plan)   # else the first
                 out[k] = SearchResult(plan, int(g[best[0]]), levels.closed, True)
-                open_[k] = False
+                open_[k], reached = False, True
         if not open_.any():
             break
-        if unreached != int(open_.sum()):
-            unreached = int(open_.sum())
+        if reached:
             levels.rescore()                 # the minimum is over fewer goals now: states opened before may wait
     return [r if r is not None else SearchResult(None, None, levels.closed, levels.exhausted) for r in out]
 
