@@ -1,4 +1,4 @@
-"""Benchmark: the Bellman–Novelty search with a Q-network value, played along a canonical sequence.
+"""Benchmark: the Bellman–Novelty search with a learned value, played along a canonical sequence.
 
 Plays the first --tasks tasks of a canonical sequence (or of a seeded stream)
 in the persistent world: per task the exact optimal planner gives the myopic
@@ -9,6 +9,7 @@ heaps and bookkeeping) and the mean seconds per task.
 
     python -m learning.bench_bn --layout three-room --checkpoint checkpoints/rl-anticipatory-three-room-seed0.pt \\
         --tasks 20 --budget 20000
+    python -m learning.bench_bn --layout three-room --gnn checkpoints/gnn-faithful-three-room-seed0.pt --tasks 10
 
 (It lives in learning/, not planning/search/, because it loads a Q-network:
 planning may not import from learning.) Run torch single-threaded
@@ -79,6 +80,7 @@ def benchmark(model, value, tasks: list, reset_seed: int, budget: int, beta: flo
 def main() -> None:
     p = cli.parser(__doc__.splitlines()[0], seed=True)
     p.add_argument("--checkpoint", default=None, help="Q-network checkpoint (default: none, the zero value)")
+    p.add_argument("--gnn", default=None, help="a GNN checkpoint instead: its C_AP estimate as the value")
     p.add_argument("--tasks", type=int, default=20, help="tasks to play (default: %(default)s)")
     p.add_argument("--sequence", type=int, default=0, help="canonical sequence (default: %(default)s)")
     p.add_argument("--stream", action="store_true", help="a stream drawn with --seed instead of the sequence")
@@ -94,8 +96,13 @@ def main() -> None:
     except ImportError:
         pass
     model = compile_domain(args.domain, args.layout)
-    value = load_value_function(args.checkpoint, model) if args.checkpoint else \
-        ZeroValue(float(model.config.get("reward", {}).get("gamma", 1.0)))
+    if args.gnn:
+        from learning.gnn_value import GNNValue
+        value = GNNValue(args.gnn, model)
+    elif args.checkpoint:
+        value = load_value_function(args.checkpoint, model)
+    else:
+        value = ZeroValue(float(model.config.get("reward", {}).get("gamma", 1.0)))
     if args.stream:
         tasks, reset = draw_tasks(model, args.seed, args.tasks), args.seed
     else:
@@ -115,7 +122,7 @@ def main() -> None:
           f"heaps and bookkeeping {sh['rest']:.0%}; {r['value_calls_per_task']:.0f} value calls and "
           f"{r['value_states_per_task']:.0f} states valued per task")
     if args.out:
-        config = {"layout": model.layout, "checkpoint": args.checkpoint, "budget": budget,
+        config = {"layout": model.layout, "checkpoint": args.gnn or args.checkpoint, "budget": budget,
                   "beta": beta, "depth_cap": args.depth_cap, "prefetch": args.prefetch}
         write_json(args.out, {**config, **r, "provenance": results_provenance(config)})
         print(f"wrote {args.out}")

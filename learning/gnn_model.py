@@ -19,6 +19,15 @@ the two pools are added, not concatenated (concatenation would make the head
 (`learning.graph`); `edge_dim=None`, the default and the thesis's setting,
 ignores it, and `edge_dim=len(relations)` uses it.
 
+`InferenceGNN` is the same function for valuation in a search. Every graph of a
+layout has the same nodes in the same order, and most of a node's 412 features
+(its name's embedding, its type, static roles) never change; so the first
+layer's four linear maps (joined in one matrix) are applied once to the
+encoder's base graph, and per batch only to the columns where the batch differs
+from it: x W = base W + (x - base)[:, changed] W[changed, :]. Batch
+normalisation is folded into a scale and a shift, the attention softmax is done
+with scatter operations.
+
 Checkpoints are plain dicts of tensors and numbers (`learning.plain`), written
 atomically and loaded with weights_only=True (`read_gnn_checkpoint`).
 """
@@ -73,6 +82,66 @@ class GNNCostModel(nn.Module):
             batch = torch.zeros(data.num_nodes, dtype=torch.long)
         return self(data.x, data.edge_index, batch, getattr(data, "edge_attr", None),
                     num_graphs=getattr(data, "num_graphs", 1))
+
+
+class InferenceGNN:
+    """`GNNCostModel.forward` in eval mode, without autograd or PyG dispatch: same inputs, same Ĉ_AP to
+    float rounding (a test holds it to the module's).
+
+    `base`: (nodes, features) the graph every input graph's x differs from in a few columns
+    (`learning.graph.GraphEncoder.base`); a batch of whole graphs of that many nodes each then
+    pays the first layer only on the columns that differ. Without it, the plain product."""
+
+    def __init__(self, net: GNNCostModel, base=None):
+        self.slope = net.dims["negative_slope"]
+        self.layers = []
+        with torch.no_grad():
+            for conv, norm in zip(net.convs, net.norms):
+                lins = [conv.lin_query, conv.lin_key, conv.lin_value, conv.lin_skip]
+                w = torch.cat([lin.weight for lin in lins]).t().contiguous()
+                b = torch.cat([lin.bias for lin in lins])
+                edge = None if conv.lin_edge is None else conv.lin_edge.weight.t().contiguous()
+                scale = norm.weight / torch.sqrt(norm.running_var + norm.eps)
+                shift = norm.bias - norm.running_mean * scale
+                self.layers.append((w, b, edge, conv.out_channels, scale, shift))
+            self.head_w = net.head.weight.t().contiguous()
+            self.head_b = net.head.bias.clone()
+            self.base = None if base is None else torch.as_tensor(base, dtype=torch.float32)
+            if self.base is not None:
+                w, b = self.layers[0][:2]
+                self.base_first = torch.addmm(b, self.base, w)          # the base graph's first-layer maps
+
+    def _first(self, x, w, b):
+        """The first layer's joined linear maps of x; through the base graph where x is whole copies of it."""
+        base = self.base
+        if base is None or x.shape[0] % base.shape[0] or x.shape[1] != base.shape[1]:
+            return torch.addmm(b, x, w)
+        n, f = base.shape
+        delta = (x.view(-1, n, f) - base).view(-1, f)
+        cols = delta.any(0).nonzero().squeeze(1)
+        return ((delta[:, cols] @ w[cols]).view(-1, n, w.shape[1]) + self.base_first).view(-1, w.shape[1])
+
+    def __call__(self, x, edge_index, batch, edge_attr=None, num_graphs: int | None = None) -> torch.Tensor:
+        with torch.inference_mode():
+            src, dst = edge_index[0], edge_index[1]
+            n = x.shape[0]
+            for depth, (w, b, edge, c, scale, shift) in enumerate(self.layers):
+                q, k, v, root = (self._first(x, w, b) if depth == 0 else torch.addmm(b, x, w)).split(c, dim=1)
+                kj, vj = k[src], v[src]
+                if edge is not None:
+                    e = edge_attr @ edge
+                    kj, vj = kj + e, vj + e
+                alpha = (q[dst] * kj).sum(1) / c ** 0.5
+                top = torch.full((n,), float("-inf")).scatter_reduce_(0, dst, alpha, "amax")
+                ex = (alpha - top[dst]).exp()
+                den = torch.zeros(n).index_add_(0, dst, ex)
+                msg = vj * (ex / (den[dst] + 1e-16)).unsqueeze(1)      # torch_geometric.utils.softmax's 1e-16
+                h = root.index_add(0, dst, msg) * scale + shift
+                x = torch.where(h >= 0, h, h * self.slope)
+            g = num_graphs if num_graphs is not None else int(batch.max()) + 1
+            total = torch.zeros(g, x.shape[1]).index_add_(0, batch, x)
+            count = torch.bincount(batch, minlength=g).clamp_(min=1).unsqueeze(1)
+            return torch.addmm(self.head_b, total / count + total, self.head_w).squeeze(-1)
 
 
 def parameter_count(model: nn.Module) -> int:

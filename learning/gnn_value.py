@@ -10,8 +10,10 @@ order the value induces, which is all the terminal selection reads, is that of
 -Ĉ_AP. The estimate is undiscounted: gamma = 1.
 
 A batch of states is encoded (`learning.graph.GraphEncoder`) and valued in one
-forward pass; the estimates are cached per state, so a search that values a
-state twice runs the network once.
+forward pass (`learning.gnn_model.InferenceGNN`: the module's function, with the
+first layer paid only on the columns where the states differ from the base
+graph); the estimates are cached per state, so a search that values a state
+twice runs the network once.
 
 `gnn-guided` (thesis Table 5.3, "GNN value, BN search") is the rl-guided agent
 (`learning.guided.ValueGuidedPlanner`) with this value in place of the
@@ -27,7 +29,7 @@ import torch
 
 from planning.errors import DomainError
 
-from learning.gnn_model import load_gnn
+from learning.gnn_model import InferenceGNN, load_gnn
 from learning.guided import ValueGuidedPlanner
 from learning.reward import cost_scale
 
@@ -71,6 +73,7 @@ class GNNValue:
         if self.net.dims["in_features"] != self.encoder.num_features:
             raise DomainError(where, f"takes {self.net.dims['in_features']} node features, the layout's graphs "
                                      f"have {self.encoder.num_features}")
+        self.inference = InferenceGNN(self.net, self.encoder.base)
         self.model = model
         self.gamma = float(gamma)
         self.scale = float(scale if scale is not None else cost_scale(model))
@@ -84,8 +87,7 @@ class GNNValue:
         need = [s for s in dict.fromkeys(states) if s not in self._cache]
         if need:
             x, index, attr, batch = collate([self.encoder.arrays(s) for s in need])
-            with torch.no_grad():
-                y = self.net(x, index, batch, attr, num_graphs=len(need)).numpy()
+            y = self.inference(x, index, batch, attr, num_graphs=len(need)).numpy()
             self.forward_calls += 1
             self.forward_states += len(need)
             if len(self._cache) + len(need) > self.cache_size:

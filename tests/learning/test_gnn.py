@@ -8,8 +8,8 @@ import torch
 
 from conftest import random_walk_states
 from learning.gnn_dataset import DatasetConfig, label_states, load_dataset, save_dataset
-from learning.gnn_model import (THESIS_FEATURES, THESIS_PARAMETERS, GNNCostModel, load_gnn, parameter_count,
-                                read_gnn_checkpoint, save_gnn_checkpoint)
+from learning.gnn_model import (THESIS_FEATURES, THESIS_PARAMETERS, GNNCostModel, InferenceGNN, load_gnn,
+                                parameter_count, read_gnn_checkpoint, save_gnn_checkpoint)
 from learning.gnn_native import GNNNativePlanner, Region, candidate_accuracy, select
 from learning.gnn_train import TrainConfig, build_model, evaluate_l1, split, train
 from learning.gnn_value import GNNValue
@@ -109,6 +109,32 @@ def test_value_honours_the_protocol(minimal, value):
     assert np.allclose(c, one, atol=1e-4)
     assert value.forward_calls == calls + 1                                    # cached
     assert value.v_ap([]).shape == (0,)
+
+
+@pytest.mark.parametrize("edge_dim", [None, "relations"])
+def test_inference_forward_is_the_modules(minimal, encoder, edge_dim):
+    """InferenceGNN (joined maps, folded batch norm, first layer through the base graph) = the module in eval."""
+    from learning.gnn_value import collate
+
+    torch.manual_seed(3)
+    net = GNNCostModel(encoder.num_features, edge_dim=len(encoder.relation_names) if edge_dim else None)
+    for norm in net.norms:                                   # running statistics other than the identity
+        norm.running_mean.uniform_(-1, 1)
+        norm.running_var.uniform_(0.5, 2)
+    net.eval()
+    states = list(dict.fromkeys(random_walk_states(minimal, 60, 2)))[:9]
+    x, index, attr, batch = collate([encoder.arrays(s) for s in states])
+    with torch.no_grad():
+        want = net(x, index, batch, attr, num_graphs=len(states))
+    for base in (None, encoder.base):
+        got = InferenceGNN(net, base)(x, index, batch, attr, num_graphs=len(states))
+        assert torch.allclose(got, want, rtol=1e-5, atol=1e-4)
+    # without the batch's last node the graphs are no longer whole copies of the base: the plain product
+    keep = (index < len(x) - 1).all(0)
+    args = (x[:-1], index[:, keep], batch[:-1], attr[keep])
+    with torch.no_grad():
+        want = net(*args, num_graphs=len(states))
+    assert torch.allclose(InferenceGNN(net, encoder.base)(*args, num_graphs=len(states)), want, rtol=1e-5, atol=1e-4)
 
 
 def test_value_refuses_another_layouts_model(minimal, encoder):
