@@ -111,6 +111,18 @@ def test_value_honours_the_protocol(minimal, value):
     assert value.v_ap([]).shape == (0,)
 
 
+def test_value_in_chunks_is_the_value_in_one_pass(minimal, value, monkeypatch):
+    import learning.gnn_value as gv
+
+    states = list(dict.fromkeys(random_walk_states(minimal, 80, 4)))[:13]
+    value._cache.clear()
+    whole = value.c_ap(states)
+    value._cache.clear()
+    monkeypatch.setattr(gv, "CHUNK", 5)
+    calls = value.forward_calls
+    assert np.allclose(value.c_ap(states), whole, atol=1e-4) and value.forward_calls == calls + 3
+
+
 @pytest.mark.parametrize("edge_dim", [None, "relations"])
 def test_inference_forward_is_the_modules(minimal, encoder, edge_dim):
     """InferenceGNN (joined maps, folded batch norm, first layer through the base graph) = the module in eval."""
