@@ -55,7 +55,9 @@ def candidate_accuracy(per_task: list) -> dict | None:
     --exact-labels: MAE and Spearman over all candidates, the share of within-task pairs (different exact
     C_AP) ordered right, the share of tasks where cost + exact C_AP picks the same candidate, and the mean
     excess of the chosen candidate's cost + exact C_AP over the best one's (the price of the estimate's
-    errors, in PDDL units, on the next task). None if no row has exact labels."""
+    errors, in PDDL units, on the next task); and what the rule could gain with exact labels: the share of
+    tasks where cost + exact C_AP leaves the myopic plan, and the mean of the myopic plan's cost + exact
+    C_AP minus the best candidate's (per scored task). None if no row has exact labels."""
     from scipy import stats
 
     from learning.gnn_bench import pair_agreement
@@ -65,7 +67,7 @@ def candidate_accuracy(per_task: list) -> dict | None:
         return None
     est = np.concatenate([r["c_ap_hat"] for r in rows])
     exact = np.concatenate([r["c_ap_exact"] for r in rows])
-    pairs, same, excess = [], 0, []
+    pairs, same, excess, departs, gain = [], 0, [], 0, []
     for r in rows:
         e, x, c = (np.asarray(r[k], dtype=float) for k in ("c_ap_hat", "c_ap_exact", "candidate_costs"))
         if len(x) > 1 and len(set(x)) > 1:
@@ -73,10 +75,13 @@ def candidate_accuracy(per_task: list) -> dict | None:
         chosen, ideal = select(c, e), select(c, x)
         same += chosen == ideal
         excess.append(c[chosen] + x[chosen] - c[ideal] - x[ideal])
+        departs += ideal != 0
+        gain.append(c[0] + x[0] - c[ideal] - x[ideal])
     return {"tasks": len(rows), "candidates": int(len(est)), "mae": round(float(np.mean(np.abs(est - exact))), 2),
             "spearman": round(float(stats.spearmanr(est, exact)[0]), 4),
             "within_task_pairs_right": round(float(np.mean(pairs)), 4) if pairs else None,
-            "same_choice_as_exact": round(same / len(rows), 4), "mean_excess": round(float(np.mean(excess)), 2)}
+            "same_choice_as_exact": round(same / len(rows), 4), "mean_excess": round(float(np.mean(excess)), 2),
+            "exact_departs": round(departs / len(rows), 4), "exact_gain": round(float(np.mean(gain)), 2)}
 
 
 class ClauseGoal:

@@ -228,6 +228,10 @@ def test_candidate_accuracy_against_exact_labels():
     a = candidate_accuracy(rows)
     assert a["tasks"] == 2 and a["candidates"] == 4 and a["mae"] == 38.5
     assert a["within_task_pairs_right"] == 0.5 and a["same_choice_as_exact"] == 0.5 and a["mean_excess"] == 55.0
+    assert a["exact_departs"] == 0.0 and a["exact_gain"] == 0.0               # exact labels keep the myopic plan
+    rows[1]["c_ap_exact"] = [12, 2]                                           # now the detour, 5 + 2 < 5 + 12
+    a = candidate_accuracy(rows)
+    assert a["exact_departs"] == 0.5 and a["exact_gain"] == 5.0 and a["same_choice_as_exact"] == 0.0
     assert candidate_accuracy(rows[2:]) is None
 
 
