@@ -157,8 +157,9 @@ def test_figures_draw_what_they_have_and_nothing_otherwise(tmp_path):
 
 
 def test_report_only_from_the_committed_results(tmp_path, monkeypatch):
-    """`--report-only` on this checkout's results: every table and figure section, the GNN rows 'not run'
-    with their commands, the myopic oracle's figure from its file, the PNGs written beside the report."""
+    """`--report-only` on this checkout's results: every table and figure section, the augmented GNN row from
+    its files (or 'not run' with its command), the myopic oracle's figure from its file, the PNGs written beside
+    the report."""
     monkeypatch.chdir(ROOT)
     out = tmp_path / "results.md"
     start = time.perf_counter()
@@ -169,6 +170,13 @@ def test_report_only_from_the_committed_results(tmp_path, monkeypatch):
         assert heading in text
     oracle = json.loads((ROOT / "results" / "myopic-oracle-two-room.json").read_text())["cost_per_task"]
     assert f"| Myopic oracle | {oracle:,.1f}" in text
-    assert "| One-task GNN (augmented) | not run" in text and "--agent gnn-native" in text
+    # the two-room augmented GNN row names every finished results file, or says "not run" with its command
+    row = next(line for line in text.splitlines() if line.startswith("| One-task GNN (augmented) |"))
+    files = [f.name for f in (ROOT / "results").glob("gnn-native-augmented-two-room-seed*.json")
+             if not f.name.endswith(".partial.json")]
+    if files:
+        assert all(f"`{name}`" in row for name in files) and f"{len(files)} of 4" in row
+    else:
+        assert "| not run" in row and "--agent gnn-native" in text
     for png in ("fig-5-1b-minimal-example.png", "fig-5-3-greedy-vs-guided.png", "fig-5-4-improvement.png"):
         assert (tmp_path / "figures" / png).is_file() and f"(figures/{png})" in text
