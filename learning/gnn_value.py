@@ -89,8 +89,8 @@ class GNNValue:
         """Ĉ_AP per state in PDDL cost units; the states not seen before in forward passes of at most
         CHUNK graphs (one for a search's batch)."""
         need = [s for s in dict.fromkeys(states) if s not in self._cache]
-        if len(self._cache) + len(need) > self.cache_size:
-            self._cache.clear()
+        if len(self._cache) + len(need) > self.cache_size:          # full: keep only what this call asks for
+            self._cache = {s: self._cache[s] for s in states if s in self._cache}
         for i in range(0, len(need), CHUNK):
             part = need[i:i + CHUNK]
             x, index, attr, batch = collate([self.encoder.arrays(s) for s in part])

@@ -123,6 +123,17 @@ def test_value_in_chunks_is_the_value_in_one_pass(minimal, value, monkeypatch):
     assert np.allclose(value.c_ap(states), whole, atol=1e-4) and value.forward_calls == calls + 3
 
 
+def test_value_with_a_full_cache_still_answers_every_state(minimal, encoder):
+    """A call that overflows the cache keeps the cached states it asks for (it once dropped them: KeyError)."""
+    torch.manual_seed(1)
+    net = GNNCostModel(encoder.num_features).eval()
+    small = GNNValue((net, {"feature_names": encoder.feature_names}), minimal, encoder=encoder, cache_size=6)
+    states = list(dict.fromkeys(random_walk_states(minimal, 80, 5)))[:10]
+    first = small.c_ap(states[:4])
+    both = small.c_ap(states[:4] + states[4:8])                 # 4 cached + 4 new > 6
+    assert np.allclose(both[:4], first) and len(small._cache) <= 8
+
+
 @pytest.mark.parametrize("edge_dim", [None, "relations"])
 def test_inference_forward_is_the_modules(minimal, encoder, edge_dim):
     """InferenceGNN (joined maps, folded batch norm, first layer through the base graph) = the module in eval."""
