@@ -256,8 +256,8 @@ def native_candidates() -> list[str]:
         if a is None:
             continue
         seconds = [r["seconds"] for r in d["per_task"] if "seconds" in r]
-        body.append([f"`{path.name}`", d["layout"], a["tasks"], a["candidates"], num(a["mae"], 1), num(a["spearman"], 3),
-                     pct(a["within_task_pairs_right"], 1, False), pct(a["same_choice_as_exact"], 1, False),
+        body.append([f"`{path.name}`", d["layout"], a["tasks"], a["candidates"], num(a["mae"], 1),
+                     num(a["spearman"], 3), pct(a["within_task_pairs_right"], 1, False), pct(a["same_choice_as_exact"], 1, False),
                      num(a["mean_excess"], 1), pct(a["exact_departs"], 1, False), num(a["exact_gain"], 1),
                      num(sum(seconds) / len(seconds) if seconds else None, 1)])
     if not body:
@@ -271,8 +271,8 @@ def native_candidates() -> list[str]:
             "excess*: how much more the chosen candidate's cost + exact C_AP is than the best one's, per task (PDDL "
             "units). *Exact C_AP leaves the myopic plan*, *exact gain*: the same rule with exact labels on the "
             "same candidates: how often it would leave the myopic plan, and its mean saving in cost + C_AP over the "
-            "myopic plan per scored task (PDDL units). s/task counts the candidate planning (once per state and task; later runs read the shared "
-            "candidate cache) and the exact labels."]
+            "myopic plan per scored task (PDDL units). s/task counts the candidate planning (once per state and "
+            "task; later runs read the shared candidate cache) and the exact labels."]
 
 
 def training_runs() -> list[str]:

@@ -79,8 +79,9 @@ def benchmark(model, value, tasks: list, reset_seed: int, budget: int, beta: flo
 
 def main() -> None:
     p = cli.parser(__doc__.splitlines()[0], seed=True)
-    p.add_argument("--checkpoint", default=None, help="Q-network checkpoint (default: none, the zero value)")
-    p.add_argument("--gnn", default=None, help="a GNN checkpoint instead: its C_AP estimate as the value")
+    which = p.add_mutually_exclusive_group()
+    which.add_argument("--checkpoint", default=None, help="Q-network checkpoint (default: none, the zero value)")
+    which.add_argument("--gnn", default=None, help="a GNN checkpoint instead: its C_AP estimate as the value")
     p.add_argument("--tasks", type=int, default=20, help="tasks to play (default: %(default)s)")
     p.add_argument("--sequence", type=int, default=0, help="canonical sequence (default: %(default)s)")
     p.add_argument("--stream", action="store_true", help="a stream drawn with --seed instead of the sequence")

@@ -141,7 +141,8 @@ def main() -> None:
         print(f"{r['layout']} validation ({a['states']} states): MAE {a['mae']} (exact mean {a['exact_mean']}), "
               f"Spearman {a['spearman']}, pairs ordered right {a['pair_agreement']:.1%} | batch of {i['batch']}: "
               f"{i['c_ap_ms']} ms (encode {i['encode_ms']}, forward {i['forward_ms']}, the module's "
-              f"{i['module_forward_ms']}) | exact C_AP {e['per_state_ms']} ms/state, {e['ratio_to_gnn']}x the GNN's; wrote {out}")
+              f"{i['module_forward_ms']}) | exact C_AP {e['per_state_ms']} ms/state, {e['ratio_to_gnn']}x the GNN's; "
+              f"wrote {out}")
 
     cli.run(run)
 

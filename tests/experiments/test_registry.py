@@ -36,7 +36,8 @@ def gnn(minimal, tmp_path_factory):
 
 ARGS = {"rl-greedy": ["--checkpoint", "{ckpt}"], "rl-guided": ["--checkpoint", "{ckpt}", "--budget", "50"],
         "clairvoyant": ["--K", "2", "--time-limit", "30"], "myopic-oracle": ["--planner", "internal"],
-        "gnn-native": ["--model", "{gnn}", "--candidates", "{tmp}/candidates.jsonl"], "gnn-guided": ["--model", "{gnn}", "--budget", "50"]}
+        "gnn-native": ["--model", "{gnn}", "--candidates", "{tmp}/candidates.jsonl"],
+        "gnn-guided": ["--model", "{gnn}", "--budget", "50"]}
 
 
 @pytest.mark.parametrize("name", list(AGENTS))
