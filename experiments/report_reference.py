@@ -210,12 +210,14 @@ def benchmarks() -> list[str]:
                 r = d[h][regime]
                 body.append([layout, h, regime, num(d[h].get(f"train_steps_per_s_{regime}")), num(r["updates_per_s"], 1),
                              num(r["update_ms"], 2), " / ".join(f"{k} {v}" for k, v in r.get("parts_ms", {}).items()),
-                             pct(r.get("boundary_share"), 0, False) if "boundary_share" in r else ""])
+                             pct(r.get("boundary_share"), 0, False) if "boundary_share" in r else "",
+                             f"{pct(r['matmul_share'], 0, False)} at {num(r['matmul_gflops'], 1)} GFLOPS"
+                             if "matmul_share" in r else "not measured"])
         notes += ["", f"`results/dqn-bench-{layout}.json` (`python -m learning.bench --layout {layout} --steps "
                           f"{d['steps']} --updates {d['updates']}`), {d['threads']} thread, CPU time; machine "
                           f"{d.get('machine', '—')}."]
     out += table(["layout", "horizon", "regime", "training steps/s", "updates/s", "ms/update", "parts (ms)",
-                  "boundary share"], body) if body else []
+                  "boundary share", "matrix products"], body) if body else []
     out += ["", "A training step is one ε = 0.05 acting step and one update of batch 128 (the thesis's ratio); "
                 "the target is 140 steps/s, a 500k-step run in an hour."] + notes
     out += ["", "### GNN estimator", ""]

@@ -15,7 +15,11 @@ the layout's demonstrations), then times
   (`learning.qnet.BoundaryCache`, cleared every target_every updates as in training)
   and without it. Its share is of the time of one update;
 - the parts of an update (`parts_ms`): the targets, the forward and backward pass of the
-  minibatch, the clipped Adam step.
+  minibatch, the clipped Adam step;
+- the matrix products (`matmul_*`, torch's profiler over the same updates once more): their share
+  of the update's CPU time and their rate in GFLOPS, which says how far the update is from its
+  arithmetic (a rate near the core's float32 peak and a share near 1 leave nothing to gain without
+  doing less arithmetic).
 
 A training step is one ε = 0.05 acting step and one update: `train_steps_per_s_*`.
 
@@ -45,6 +49,7 @@ from .qnet import COMPLETE, BoundaryCache, td_targets
 from .replay import mixed_batch
 
 clock = time.process_time
+MATMUL_OPS = ("aten::addmm", "aten::mm", "aten::bmm", "aten::addmv", "aten::mv", "aten::dot")
 
 
 def acting_rate(trainer: Trainer, steps: int, eps: float) -> float:
@@ -92,7 +97,7 @@ def update_profile(trainer: Trainer, n: int) -> dict:
     completions = float(np.mean([(b["kinds"] == COMPLETE).sum() for b in batches]))
     out = {"updates_per_s": round(1 / t_update, 2), "update_ms": round(1000 * t_update, 2),
            "completions_per_minibatch": round(completions, 2),
-           "parts_ms": {k: round(1000 * v / n, 2) for k, v in parts.items()}}
+           "parts_ms": {k: round(1000 * v / n, 2) for k, v in parts.items()}, **matmul_profile(trainer, batches)}
     if cfg.horizon == "anticipatory":
         b_cached, b_plain = max(0.0, t_cached - t_myopic), max(0.0, t_plain - t_myopic)   # timing noise
         out.update({"boundary_ms": round(1000 * b_cached, 2), "boundary_share": round(b_cached / t_update, 3),
@@ -100,6 +105,24 @@ def update_profile(trainer: Trainer, n: int) -> dict:
                     "boundary_share_uncached": round(b_plain / (t_update - b_cached + b_plain), 3),
                     "updates_per_s_uncached": round(1 / (t_update - b_cached + b_plain), 2)})
     return out
+
+
+def matmul_profile(trainer: Trainer, batches: list) -> dict:
+    """The matrix products' CPU time per update, their share of the update's (both as torch's profiler
+    counts them, self time per operation) and their rate, over the given minibatches."""
+    from torch.profiler import ProfilerActivity, profile
+    trainer.boundary.clear()
+    with profile(activities=[ProfilerActivity.CPU], with_flops=True) as prof:
+        for i, b in enumerate(batches):
+            if i % trainer.cfg.target_every == 0:
+                trainer.boundary.clear()
+            trainer.update(b)
+    ops = prof.key_averages()
+    total = sum(e.self_cpu_time_total for e in ops)                    # microseconds
+    mm = [e for e in ops if e.key in MATMUL_OPS]
+    t = sum(e.self_cpu_time_total for e in mm)
+    return {"matmul_ms": round(t / 1000 / len(batches), 2), "matmul_share": round(t / total, 3) if total else 0.0,
+            "matmul_gflops": round(sum(e.flops for e in mm) / t / 1e3, 1) if t else 0.0}
 
 
 def bench_horizon(model_dir: str, layout: str, horizon: str, steps: int, updates: int, seed: int) -> dict:
@@ -141,7 +164,8 @@ def main() -> None:
         line = (f"{h:12s} env {r['env_steps_per_s_greedy']:.0f} steps/s | updates/s early {e['updates_per_s']:.1f}, "
                 f"competent {c['updates_per_s']:.1f} ({c['update_ms']:.1f} ms; "
                 f"{c['completions_per_minibatch']:.1f} completions/minibatch) | train steps/s early "
-                f"{r['train_steps_per_s_early']:.1f}, competent {r['train_steps_per_s_competent']:.1f}")
+                f"{r['train_steps_per_s_early']:.1f}, competent {r['train_steps_per_s_competent']:.1f} | matrix products "
+                f"{c['matmul_share']:.0%} of a competent update at {c['matmul_gflops']:.0f} GFLOPS")
         if "boundary_share" in c:
             line += (f" | boundary share early {e['boundary_share']:.0%}, competent {c['boundary_share']:.0%} "
                      f"(uncached {c['boundary_share_uncached']:.0%}, {c['updates_per_s_uncached']:.1f} updates/s)")

@@ -155,6 +155,7 @@ def test_throughput_benchmark_reports_rates_and_the_boundary_share():
         e = r[regime]
         assert e["updates_per_s"] > 0 and 0 <= e["boundary_share"] < 1
         assert e["boundary_share_uncached"] < 1 and e["completions_per_minibatch"] >= 0
+        assert 0 < e["matmul_share"] < 1 and e["matmul_ms"] > 0 and e["matmul_gflops"] > 0
     myopic = bench_horizon(MINIMAL, "grid", "myopic", steps=60, updates=6, seed=0)
     assert "boundary_share" not in myopic["competent"]        # no boundary target without anticipation
 
