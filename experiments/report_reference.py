@@ -220,6 +220,7 @@ def benchmarks() -> list[str]:
                   "boundary share", "matrix products"], body) if body else []
     out += ["", "A training step is one ε = 0.05 acting step and one update of batch 128 (the thesis's ratio); "
                 "the target is 140 steps/s, a 500k-step run in an hour."] + notes
+    out += gnn_datasets()
     out += ["", "### GNN estimator", ""]
     body, maes = [], {}
     for path in sorted(Path("results").glob("bench-gnn-*.json")):
@@ -245,6 +246,31 @@ def benchmarks() -> list[str]:
                 "labelling oracle's. The authors' three-room runs reached a validation L1 of about 50. *s/epoch*: "
                 "the training run's (`results/training-gnn-*.json`), at whatever load the machine had."]
     return out + native_candidates()
+
+
+def gnn_datasets() -> list[str]:
+    """The GNN datasets' key figures (`learning.export` of a learning.gnn_dataset folder)."""
+    body = []
+    for path in sorted(Path("results").glob("dataset-gnn-*.json")):
+        d = read(path)
+        if d is None:
+            continue
+        k, c, cfg = d["kinds"], d["c_ap"], d.get("config", {})
+        body.append([f"`{path.name}`", d["layout"], d["variant"], f"{d['states']:,}",
+                     " / ".join(f"{k.get(x, 0):,}" for x in ("faithful", "prepared")), num(c["mean"], 1),
+                     f"{num(c['min'], 0)} – {num(c['max'], 0)}", cfg.get("heuristic", "—"),
+                     num(d.get("label_cpu_seconds"), 0), num(d.get("seconds_collecting_and_labelling"), 0)])
+    if not body:
+        return []
+    return ["", "### GNN datasets", ""] + table(
+        ["results file", "layout", "variant", "states", "faithful / prepared", "mean C_AP", "C_AP range",
+         "labelling heuristic", "labelling CPU s", "wall s"], body) + [
+        "", "`python -m learning.gnn_dataset --layout <layout> [--augmented] --n-states 2000 --out "
+            "runs/gnn/<layout>-<variant>` builds a dataset (graphs and exact one-task C_AP labels; megabytes, not "
+            "committed); `python -m learning.export runs/gnn/<layout>-<variant>` writes its key figures. *Labelling "
+            "CPU s*: the sum of every label's own search time, labels taken from another folder (`--reuse-labels`, "
+            "as the augmented sets took the faithful ones) included; *wall s*: this build's collecting and "
+            "labelling."]
 
 
 def native_candidates() -> list[str]:

@@ -2,6 +2,7 @@
 
     python -m learning.export runs/dqn/restaurant-three-room-anticipatory-seed0   # a learning.dqn run
     python -m learning.export runs/gnn/three-room-faithful-seed0                  # a learning.gnn_train run
+    python -m learning.export runs/gnn/three-room-augmented                       # a learning.gnn_dataset folder
         [--out CHECKPOINT] [--figures JSON]
 
 - The compact checkpoint is the run's best.pt (the network the run selected: the
@@ -21,12 +22,19 @@
   the wall time of the training loop (the sum of each
   log window's steps over its measured rate). A GNN run's are its summary.json
   (validation L1, best epoch, seconds per epoch). Default: results/training-<name>.json.
+- A GNN dataset (megabytes of graphs) is committed as its key figures only, read from its
+  meta.json: the settings it was built with, its states per kind (faithful, prepared), the
+  exact C_AP labels' spread, and what labelling them cost. Default:
+  results/dataset-gnn-<faithful|augmented>-<layout>.json; there is no checkpoint.
 """
 from __future__ import annotations
 
 import argparse
 import json
+from collections import Counter
 from pathlib import Path
+
+import numpy as np
 
 
 from planning import cli
@@ -109,6 +117,32 @@ def _median(xs: list) -> float | None:
     return round(xs[len(xs) // 2], 2) if xs else None
 
 
+def is_dataset(folder: Path) -> bool:
+    """True for a learning.gnn_dataset folder (meta.json and graphs, no checkpoint)."""
+    return (folder / "meta.json").is_file() and not (folder / "best.pt").exists()
+
+
+def dataset_figures(folder: Path) -> dict:
+    """A GNN dataset's key figures from its meta.json (see the module's docstring)."""
+    try:
+        meta = json.loads((folder / "meta.json").read_text())
+        kinds, c_ap, secs = meta["kinds"], np.asarray(meta["c_ap"], float), np.asarray(meta["label_seconds"], float)
+    except (OSError, json.JSONDecodeError, KeyError, TypeError, ValueError) as e:
+        raise DomainError(folder / "meta.json", f"not a GNN dataset's metadata ({type(e).__name__}: {e})") from None
+    if not len(kinds) == len(c_ap) == len(secs) == meta.get("n", len(kinds)) or not len(kinds):
+        raise DomainError(folder / "meta.json", "its kinds, labels and label times do not count the same states")
+    spread = lambda x, d: {k: round(float(f(x)), d) for k, f in
+                           (("mean", np.mean), ("min", np.min), ("median", np.median), ("max", np.max))}
+    cfg = meta.get("config", {})
+    return {"dataset": str(folder), "domain": meta.get("domain"), "layout": meta.get("layout"),
+            "variant": "augmented" if cfg.get("augmented", "prepared" in kinds) else "faithful",
+            "states": len(kinds), "kinds": dict(Counter(kinds)), "tasks": len(meta.get("tasks", [])),
+            "features": len(meta.get("feature_names", [])), "config": cfg, "c_ap": spread(c_ap, 2),
+            "label_seconds": spread(secs, 4),
+            **{k: meta[k] for k in ("seconds_faithful_states", "seconds_collecting_and_labelling",
+                                    "label_cpu_seconds") if k in meta}}
+
+
 def is_gnn_run(run: Path) -> bool:
     """True for a learning.gnn_train run folder, False for a learning.dqn one (by its best.pt)."""
     from learning.gnn_model import is_gnn_checkpoint
@@ -171,8 +205,8 @@ def export(run: Path, out: Path, figures: Path | None) -> tuple[dict, dict]:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("run", help="a learning.dqn run folder (best.pt, metrics.jsonl) or a learning.gnn_train one "
-                               "(best.pt, summary.json)")
+    p.add_argument("run", help="a learning.dqn run folder (best.pt, metrics.jsonl), a learning.gnn_train one "
+                               "(best.pt, summary.json) or a learning.gnn_dataset folder (meta.json)")
     p.add_argument("--out", help="compact checkpoint (default: checkpoints/rl-<horizon>-<layout>-seed<N>.pt, "
                                  "checkpoints/gnn-<variant>-<layout>-seed<N>.pt)")
     p.add_argument("--figures", help="key figures JSON (default: results/training-<checkpoint name without rl->.json)")
@@ -180,6 +214,17 @@ def main() -> None:
     def run():
         args = p.parse_args()
         folder = Path(args.run)
+        if is_dataset(folder):
+            if args.out:
+                raise DomainError("--out", "a dataset has no checkpoint; --figures names its key figures")
+            figs = dataset_figures(folder)
+            figures = Path(args.figures or f"results/dataset-gnn-{figs['variant']}-{figs['layout']}.json")
+            cli.check_writable(figures)
+            write_json(figures, {**figs, "provenance": results_provenance(figs)})
+            print(f"wrote {figures}: {figs['states']:,} states ("
+                  + ", ".join(f"{v:,} {k}" for k, v in figs["kinds"].items())
+                  + f"), mean C_AP {figs['c_ap']['mean']:,.1f}")
+            return
         gnn = is_gnn_run(folder)
         names = default_names(folder, gnn) if not (args.out and args.figures) else (args.out, args.figures)
         out, figures = Path(args.out or names[0]), Path(args.figures or names[1])

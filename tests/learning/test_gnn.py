@@ -320,3 +320,25 @@ def test_value_rank_scores_a_gnn_on_its_validation_split_only(minimal, encoder, 
     n = json.loads((dataset / "meta.json").read_text())["n"]
     assert row["scored_on"] == "the validation split of its own training run"
     assert row["all"]["states"] == len(split(n, 0)[1]) < n
+
+
+def test_dataset_export_writes_its_key_figures(dataset, tmp_path, capsys):
+    """A dataset folder is committed as its key figures: states per kind and the labels' spread, from meta.json."""
+    import sys
+
+    from learning import export
+
+    meta = json.loads((dataset / "meta.json").read_text())
+    out = tmp_path / "dataset.json"
+    sys.argv = ["export", str(dataset), "--figures", str(out)]
+    export.main()
+    d = json.loads(out.read_text())
+    assert d["states"] == meta["n"] == len(meta["c_ap"]) and d["kinds"] == {"faithful": meta["n"]}
+    assert d["variant"] == "faithful" and d["layout"] == "grid"
+    assert d["c_ap"]["mean"] == pytest.approx(np.mean(meta["c_ap"]), abs=0.01)
+    assert d["c_ap"]["max"] == pytest.approx(max(meta["c_ap"]), abs=0.01) and "provenance" in d
+    assert f"{meta['n']:,} states" in capsys.readouterr().out
+    sys.argv = ["export", str(dataset), "--out", str(tmp_path / "x.pt")]
+    with pytest.raises(SystemExit) as e:      # a dataset has no checkpoint to write
+        export.main()
+    assert e.value.code != 0
