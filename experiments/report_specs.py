@@ -15,6 +15,7 @@ restaurant and 5 on the three-room (Appendix A.2), GNN seeds 0, 4, 8 and 16
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 LAYOUTS = ("two-room", "three-room")
 RL_SEEDS = {"two-room": (0, 4, 8, 16), "three-room": (0, 4, 8, 16, 42)}   # Appendix A.1
@@ -209,8 +210,10 @@ COMPARISONS = (("anticipatory-rl-guided", "gnn-augmented"), ("anticipatory-rl-gu
 
 
 def training_logs(layout: str, horizon: str) -> list[tuple[int, str]]:
-    """(seed, metrics.jsonl) of the training runs behind a learned row (Figure A.1)."""
-    return [(s, f"{rl_run_dir(horizon, layout, s)}/metrics.jsonl") for s in RL_SEEDS[layout]]
+    """(seed, metrics.jsonl) of the finished training runs behind a learned row (Figure A.1): those exported
+    (`learning.export` wrote results/training-<horizon>-<layout>-seed<N>.json), not runs still in progress."""
+    return [(s, f"{rl_run_dir(horizon, layout, s)}/metrics.jsonl") for s in RL_SEEDS[layout]
+            if Path(f"results/training-{horizon}-{layout}-seed{s}.json").is_file()]
 
 
 def discount_runs() -> list[tuple[float, str, str]]:

@@ -180,3 +180,15 @@ def test_report_only_from_the_committed_results(tmp_path, monkeypatch):
         assert "| not run" in row and "--agent gnn-native" in text
     for png in ("fig-5-1b-minimal-example.png", "fig-5-3-greedy-vs-guided.png", "fig-5-4-improvement.png"):
         assert (tmp_path / "figures" / png).is_file() and f"(figures/{png})" in text
+
+
+def test_training_curves_leave_out_runs_in_progress(tmp_path, monkeypatch):
+    """Figure A.1 draws a seed's run once it is exported (finished), not while it trains."""
+    from experiments.report_specs import training_logs
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "results").mkdir()
+    assert training_logs("two-room", "myopic") == []
+    (tmp_path / "results" / "training-myopic-two-room-seed4.json").write_text("{}")
+    assert training_logs("two-room", "myopic") == [(4, "runs/dqn/restaurant-two-room-myopic-seed4/metrics.jsonl")]
+    assert training_logs("two-room", "anticipatory") == []
