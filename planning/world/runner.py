@@ -297,8 +297,10 @@ def evaluate(model, agent, ids, out=None, progress=True, reference=None, force=F
     `force` (then it is replaced). A saved sequence that does not match the
     canonical one (cut short, edited) is an error; one whose failed tasks were
     not yet charged is played again. OUT is checked writable before anything is
-    played. Planner timeouts and crashes print one warning line; with `strict`
-    they are an error (exit 2) once the results are written.
+    played. A finished OUT that already holds every sequence asked for is
+    returned as it is, not rewritten, so its provenance still names the run
+    that played it. Planner timeouts and crashes print one warning line; with
+    `strict` they are an error (exit 2) once the results are written.
     """
     from planning.cli import check_writable
 
@@ -310,6 +312,7 @@ def evaluate(model, agent, ids, out=None, progress=True, reference=None, force=F
         check_writable(partial)
     saved_runs: list = []
     wall = 0.0
+    finished = None                        # OUT as it is, when it is a finished run of this configuration
     if out and Path(out).is_file():
         saved = _read(Path(out), "results")
         diff = difference(saved, agent, model)
@@ -326,6 +329,7 @@ def evaluate(model, agent, ids, out=None, progress=True, reference=None, force=F
             table = {i: [r for r in rows if r.get("sequence") == i] for i in sequences}
             saved_runs.append((Path(out), "results", _saved_sequences(Path(out), "results", table)))
             wall = saved.get("wall_seconds", 0.0)
+            finished = saved
     if partial and partial.is_file():
         saved = _read(partial, "partial results")
         if difference(saved, agent, model) is None:
@@ -353,6 +357,8 @@ def evaluate(model, agent, ids, out=None, progress=True, reference=None, force=F
         wall = 0.0
     seqs = load(model, ids)
     todo = [s for s in seqs if s.id not in done]
+    if finished is not None and not todo and len(saved_runs) == 1:
+        return finished                    # nothing to play or merge: OUT and its provenance stay as written
     bar = tqdm(total=sum(len(s.tasks) for s in todo), desc=f"{agent.name} {model.layout}",
                unit="task", disable=not progress)
     for seq in todo:

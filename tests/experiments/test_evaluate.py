@@ -121,6 +121,11 @@ def test_a_finished_run_is_extended_not_replayed(two_room, tmp_path, monkeypatch
     both = evaluate(two_room, RandomPolicy(seed=1), [0, 1], out, progress=False)
     assert both["sequences"] == [0, 1] and both["tasks"] == 8
     assert [r["cost"] for r in both["per_task"] if r["sequence"] == 0] == [7] * 4
+    # Asking again for sequences it holds plays nothing and leaves the file, provenance included, as it was
+    # (experiments.select_beta reuses the ten-sequence run for its development sequences this way).
+    before = out.read_text()
+    again = evaluate(two_room, RandomPolicy(seed=1), [1], out, progress=False)
+    assert out.read_text() == before and again == json.loads(before)
     # Another configuration's finished results are never replaced silently ...
     before = out.read_text()
     with pytest.raises(DomainError, match=r"r\.json: a finished run with seed 1, not 2; pass --force"):
