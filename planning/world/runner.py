@@ -358,26 +358,27 @@ def evaluate(model, agent, ids, out=None, progress=True, reference=None, force=F
     seqs = load(model, ids)
     todo = [s for s in seqs if s.id not in done]
     if finished is not None and not todo and len(saved_runs) == 1:
-        return finished                    # nothing to play or merge: OUT and its provenance stay as written
-    bar = tqdm(total=sum(len(s.tasks) for s in todo), desc=f"{agent.name} {model.layout}",
-               unit="task", disable=not progress)
-    for seq in todo:
-        start = time.perf_counter()
-        done[seq.id] = play_sequence(model, agent, seq, bar)
-        wall += time.perf_counter() - start
-        if partial:
-            write_json(partial, {"agent": agent.name, "layout": model.layout, "config": agent.config,
-                                 "wall_seconds": wall, "done": done})
-    bar.close()
-    seqs = load(model, sorted(set(ids or []) | set(done))) if ids else seqs
-    rows = [r for s in seqs for r in done[s.id]]
-    result = summary(agent.name, model, [s.id for s in seqs], rows, wall, agent.config, reference)
-    if hasattr(agent, "summary"):          # an agent's own keys (e.g. the clairvoyant's K)
-        result.update(agent.summary(rows))
-    result["provenance"] = results_provenance(agent.config, [s.id for s in todo])
-    if out:
-        write_json(out, result)
-        partial.unlink(missing_ok=True)
+        result, rows = finished, finished["per_task"]   # nothing to play or merge: OUT stays as written
+    else:
+        bar = tqdm(total=sum(len(s.tasks) for s in todo), desc=f"{agent.name} {model.layout}",
+                   unit="task", disable=not progress)
+        for seq in todo:
+            start = time.perf_counter()
+            done[seq.id] = play_sequence(model, agent, seq, bar)
+            wall += time.perf_counter() - start
+            if partial:
+                write_json(partial, {"agent": agent.name, "layout": model.layout, "config": agent.config,
+                                     "wall_seconds": wall, "done": done})
+        bar.close()
+        seqs = load(model, sorted(set(ids or []) | set(done))) if ids else seqs
+        rows = [r for s in seqs for r in done[s.id]]
+        result = summary(agent.name, model, [s.id for s in seqs], rows, wall, agent.config, reference)
+        if hasattr(agent, "summary"):          # an agent's own keys (e.g. the clairvoyant's K)
+            result.update(agent.summary(rows))
+        result["provenance"] = results_provenance(agent.config, [s.id for s in todo])
+        if out:
+            write_json(out, result)
+            partial.unlink(missing_ok=True)
     warning = fault_warning(rows)
     if warning:
         if strict:

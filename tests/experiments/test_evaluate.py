@@ -194,6 +194,11 @@ def test_failures_are_charged_and_a_planner_fault_warns(two_room, tmp_path, monk
     with pytest.raises(DomainError, match=r"--strict: \d+ of 5 tasks .* sequence 0 task \d+"):
         evaluate(two_room, GivesUp("crashed"), [0], out, progress=False, strict=True)
     assert json.loads(out.read_text())["planner_faults"] == len(failed)
+    # ... and so is asking again for what that finished file holds, which plays nothing and leaves it as it was
+    before = out.read_text()
+    with pytest.raises(DomainError, match=r"--strict: \d+ of 5 tasks .* sequence 0 task \d+"):
+        evaluate(two_room, GivesUp("crashed"), [0], out, progress=False, strict=True)
+    assert out.read_text() == before
     # an unsolvable verdict is a failure (charged) but not a planner fault
     out.unlink()
     r = evaluate(two_room, GivesUp("unsolvable"), [0], out, progress=False, strict=True)
