@@ -111,7 +111,6 @@ def matmul_profile(trainer: Trainer, batches: list) -> dict:
     """The matrix products' CPU time per update, their share of the update's (both as torch's profiler
     counts them, self time per operation) and their rate, over the given minibatches."""
     from torch.profiler import ProfilerActivity, profile
-    trainer.boundary.clear()
     with profile(activities=[ProfilerActivity.CPU], with_flops=True) as prof:
         for i, b in enumerate(batches):
             if i % trainer.cfg.target_every == 0:
