@@ -47,6 +47,7 @@ from planning.world.task_stream import PersistentWorld, TaskStream
 from .encoding import Encoding
 from .qnet import (COMPLETE, CONTINUE, TERMINAL, BoundaryCache, LiveGreedy, SlotCache, ValueFunction,
                    build_network, network_payload, read_checkpoint, save_checkpoint, td_targets)
+from .optim import FlatAdam
 from .replay import Replay, mixed_batch
 
 HORIZONS = ("myopic", "anticipatory")
@@ -287,13 +288,13 @@ class Trainer:
         self.target = build_network(self.enc, cfg.hidden)
         self.target.load_state_dict(self.net.state_dict())
         self.boundary = BoundaryCache()        # target values of replayed completion states, per sync
-        self.params = list(self.net.parameters())
+        self.opt = FlatAdam(self.net.parameters(), lr=cfg.lr)   # the parameters move into one flat buffer
         self.greedy = LiveGreedy(self.net)     # acting: the online net's current weights, in numpy
-        self.opt = torch.optim.Adam(self.params, lr=cfg.lr, fused=True)
         self.memory = Replay(cfg.buffer_size, self.enc.n_words)
         self.demos, self.demo_returns = demonstrations(model, self.enc, cfg, self.r_goal, self.scale,
                                                        self.terminal_reset, progress)
-        self.slots = SlotCache(self.enc, self.demos.capacity + self.memory.capacity)   # encodings, per slot
+        self.slots = SlotCache(self.enc, self.demos.capacity + self.memory.capacity,   # encodings, per slot
+                               self.net.mask_bits)
 
         # -- line 2: the world and the task stream ----------------------------------------------
         self.stream = TaskStream(model, cfg.seed)
@@ -354,19 +355,16 @@ class Trainer:
         """The gradient step on the Huber loss toward y (line 20); `parts` collects its CPU seconds."""
         t = time.process_time()
         if "slots" in batch:
-            obs, valid = self.slots.observe(batch)
+            obs, valid, mb = self.slots.observe(batch)
         else:
-            obs, valid = self.enc.observe(batch["states"], batch["tasks"]), self.enc.valid_for(batch["states"], batch["tasks"])
-        q = self.net.q_taken(torch.from_numpy(obs), torch.from_numpy(valid), torch.from_numpy(batch["actions"]))
+            obs, valid, mb = self.enc.observe(batch["states"], batch["tasks"]), self.enc.valid_for(batch["states"], batch["tasks"]), None
+        masks = None if mb is None else self.net.masks_from_bits(mb)
+        q = self.net.q_taken(torch.from_numpy(obs), torch.from_numpy(valid), torch.from_numpy(batch["actions"]), masks)
         loss = F.smooth_l1_loss(q, y)
-        self.opt.zero_grad(set_to_none=True)
-        loss.backward()
-        for p in self.params:      # a parameter the loss did not reach steps with a zero gradient, as in the
-            if p.grad is None:     # per-head forward, where every head was in every loss (Adam's moments decay)
-                p.grad = torch.zeros_like(p)
+        self.opt.zero_grad()       # a parameter the loss does not reach steps with a zero gradient, as in the
+        loss.backward()            # per-head forward, where every head was in every loss (Adam's moments decay)
         t1 = time.process_time()
-        torch.nn.utils.clip_grad_norm_(self.params, self.cfg.grad_clip)
-        self.opt.step()
+        self.opt.step(self.cfg.grad_clip)
         if parts is not None:
             parts["gradient"] = parts.get("gradient", 0.0) + t1 - t
             parts["optimizer"] = parts.get("optimizer", 0.0) + time.process_time() - t1

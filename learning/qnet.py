@@ -115,6 +115,8 @@ class FactoredQNet(nn.Module):
         uniq, first, lab_of_act = np.unique(labels, axis=0, return_index=True, return_inverse=True)
         A, L = len(labels), len(uniq)
         self.lab_of_act = torch.from_numpy(lab_of_act.reshape(-1).astype(np.int64))
+        self.act_by_label = np.argsort(lab_of_act.reshape(-1), kind="stable")        # actions grouped by label
+        self.label_start = np.searchsorted(lab_of_act.reshape(-1)[self.act_by_label], np.arange(len(uniq)))
         inst = []                                       # (head, prefix id, values that follow it)
         for d, V in enumerate(t.sizes):
             pid, val = t.pid[d].numpy()[first], uniq[:, d]
@@ -167,6 +169,21 @@ class FactoredQNet(nn.Module):
         m = m.view(self.n_inst, self.v_max, len(valid)).transpose(1, 2)
         return m, m.sum(-1, keepdim=True).clamp_(min=1.0)
 
+    def mask_bits(self, valid) -> np.ndarray:
+        """(N, instances * V) bool: `head_masks` of rows with this validity in a compact form, to keep
+        beside the validity it depends on (`masks_from_bits` turns it back)."""
+        m = self.slot_act @ torch.as_tensor(valid).to(torch.float32).T                    # (slots, N)
+        return (m > 0).T.numpy()
+
+    def masks_from_bits(self, bits: np.ndarray) -> tuple:
+        """`head_masks` from `mask_bits`: the same tensors, without the product over every action."""
+        m = torch.from_numpy(bits.astype(np.float32)).view(len(bits), self.n_inst, self.v_max).transpose(0, 1)
+        return m, m.sum(-1, keepdim=True).clamp_(min=1.0)
+
+    def label_valid(self, valid: np.ndarray) -> np.ndarray:
+        """(N, labels) bool: which factored labels have a valid ground action in each row."""
+        return np.logical_or.reduceat(valid[:, self.act_by_label], self.label_start, axis=1)
+
     @staticmethod
     def select_masks(masks: tuple, rows: torch.Tensor) -> tuple:
         """The head masks of some rows."""
@@ -208,10 +225,11 @@ class FactoredQNet(nn.Module):
         q = self.q_labels(self.encoder[0](obs), masks).index_select(1, self.lab_of_act)
         return q.masked_fill(~valid, float("-inf"))
 
-    def q_taken(self, obs: torch.Tensor, valid: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+    def q_taken(self, obs: torch.Tensor, valid: torch.Tensor, actions: torch.Tensor,
+                masks: tuple | None = None) -> torch.Tensor:
         """(N,) Q of each row's taken action, which is valid there (`forward` gathered, without the
         copy to every action)."""
-        q = self.q_labels(self.encoder[0](obs), self.head_masks(valid))
+        q = self.q_labels(self.encoder[0](obs), self.head_masks(valid) if masks is None else masks)
         return q.gather(1, self.lab_of_act[actions][:, None])[:, 0]
 
     def first_layer_pairs(self, bits: torch.Tensor, task_feat: torch.Tensor, state_of: torch.Tensor,
@@ -597,8 +615,8 @@ def preparedness(online: nn.Module, target: nn.Module, enc: Encoding, packed: np
 
 
 class BoundaryCache:
-    """Validity and target-network values of the boundary pairs, per completion state, valid until the
-    next target sync.
+    """Validity (and its head-mask bits) and target-network values of the boundary pairs, per completion
+    state, valid until the next target sync.
 
     The anticipatory target needs Q_target(s', τ', ·) for every task of the support
     at every replayed completion state s'. The target network only changes at a
@@ -628,8 +646,9 @@ def _support_valid(enc: Encoding, packed: np.ndarray) -> np.ndarray:
 
 class SlotCache:
     """Per replay slot (`learning.replay.mixed_batch`'s "slots"): the encodings of its (s, τ) and
-    (s', τ) rows, kept while the slot holds the same transition, and the target network's
-    values at (s', τ), kept until the next target sync.
+    (s', τ) rows (bits, validity and, given the network's `mask_bits`, its head masks), kept while
+    the slot holds the same transition, and the target network's values at (s', τ), kept until
+    the next target sync.
 
     A transition is replayed about a hundred times while it is in the agent's memory (102
     draws a step from 50,000) and a demonstration thousands of times, so almost every row's
@@ -637,13 +656,14 @@ class SlotCache:
     twice or more between two syncs. Call `sync` whenever the target network changes.
     """
 
-    def __init__(self, enc: Encoding, size: int):
-        self.enc, self.epoch = enc, 0
+    def __init__(self, enc: Encoding, size: int, mask_bits=None):
+        self.enc, self.epoch, self.mask_bits = enc, 0, mask_bits
         self.writes = np.full(size, -1, dtype=np.int64)                 # the slot's write count when encoded
         self.bits = np.zeros((size, 2, enc.n_atoms), dtype=np.uint8)     # s, s'
         self.valid = np.zeros((size, 2, enc.n_actions), dtype=bool)      # (s, τ), (s', τ)
         self.q_epoch = np.full(size, -1, dtype=np.int64)
         self.q = np.zeros((size, 0), dtype=np.float32)                  # target values at (s', τ)
+        self.masks = None
 
     def sync(self) -> None:
         """Forget the target values (the target network changed); the encodings stay."""
@@ -662,16 +682,22 @@ class SlotCache:
             m = len(rows)
             self.bits[u, 0], self.bits[u, 1] = bits[:m], bits[m:]
             self.valid[u, 0], self.valid[u, 1] = valid[:m], valid[m:]
+            if self.mask_bits is not None:
+                mb = self.mask_bits(valid)
+                if self.masks is None:
+                    self.masks = np.zeros((len(self.writes), 2, mb.shape[1]), dtype=bool)
+                self.masks[u, 0], self.masks[u, 1] = mb[:m], mb[m:]
             self.writes[u] = writes[rows]
             self.q_epoch[u] = -1
         return slots
 
     def observe(self, batch: dict) -> tuple:
-        """(observations, validity) of the batch's (s, τ) rows, as `Encoding.observe` / `valid_for`."""
+        """(observations, validity, head-mask bits or None) of the batch's (s, τ) rows, as
+        `Encoding.observe` / `valid_for` / `FactoredQNet.mask_bits`."""
         slots = self.encode(batch)
         obs = np.concatenate([self.bits[slots, 0].astype(np.float32),
                               self.enc.task_feat[np.asarray(batch["tasks"], dtype=np.int64)]], axis=1)
-        return obs, self.valid[slots, 0]
+        return obs, self.valid[slots, 0], None if self.masks is None else self.masks[slots, 0]
 
     def known(self, slots: np.ndarray) -> np.ndarray:
         """Which of these slots have target values from the current target network."""
@@ -692,32 +718,43 @@ def _bits(enc: Encoding, packed: np.ndarray) -> np.ndarray:
 
 
 class _Pairs:
-    """(state, task) rows given as packed-state bits and indices: what td_targets feeds the networks."""
+    """(state, task) rows given as packed-state bits and indices: what td_targets feeds the networks.
+
+    A FactoredQNet is evaluated per factored label (`q_labels`) and any other network per
+    action; `best` and `values` answer in that network's columns (`columns`).
+    """
 
     def __init__(self, enc: Encoding, bits: np.ndarray, state_of: np.ndarray, task_of: np.ndarray,
                  valid: np.ndarray):
         self.enc, self.bits, self.state_of, self.task_of, self.valid = enc, bits, state_of, task_of, valid
-        self.tensors = [torch.from_numpy(x) for x in (bits, enc.task_feat)]
+        self.feat = torch.from_numpy(enc.task_feat)
 
     def _inputs(self, rows):
-        s, t = torch.from_numpy(self.state_of[rows]), torch.from_numpy(self.task_of[rows])
-        return self.tensors + [s, t], torch.from_numpy(self.valid[rows])
+        """The distinct states' bits of these rows and the rows' state and task indices into them."""
+        states, s = np.unique(self.state_of[rows], return_inverse=True)
+        return torch.from_numpy(self.bits[states]), self.feat, torch.from_numpy(s.reshape(-1)), torch.from_numpy(self.task_of[rows])
+
+    @staticmethod
+    def columns(net: nn.Module, n_actions: int) -> torch.Tensor:
+        """The column of each action in `values`: its label's for a FactoredQNet, its own otherwise."""
+        return net.lab_of_act if hasattr(net, "q_labels") else torch.arange(n_actions)
 
     def best(self, net: nn.Module, rows: np.ndarray, masks) -> torch.Tensor:
-        """argmax over the valid actions of net's Q at the given rows."""
-        (bits, feat, s, t), valid = self._inputs(rows)
-        if hasattr(net, "forward_pairs"):
-            return net.forward_pairs(bits, feat, s, t, valid, masks).max(dim=1)[1]
-        obs = torch.cat([bits[s], feat[t]], 1)
-        return masked_max(net(obs, valid), valid)[1]
-
-    def values(self, net: nn.Module, rows: np.ndarray, masks):
-        """net's Q at the given rows, per label for a FactoredQNet (and the action -> column map)."""
-        (bits, feat, s, t), valid = self._inputs(rows)
+        """The column (`columns`) of the argmax over the valid actions of net's Q at the given rows (a
+        FactoredQNet's over the labels that have a valid action)."""
+        bits, feat, s, t = self._inputs(rows)
         if hasattr(net, "q_labels"):
-            return net.q_labels(net.first_layer_pairs(bits, feat, s, t), masks), net.lab_of_act
-        obs = torch.cat([bits[s], feat[t]], 1)
-        return net(obs, valid), torch.arange(valid.shape[1])
+            q = net.q_labels(net.first_layer_pairs(bits, feat, s, t), masks)
+            return q.masked_fill(torch.from_numpy(~net.label_valid(self.valid[rows])), float("-inf")).max(dim=1)[1]
+        valid = torch.from_numpy(self.valid[rows])
+        return masked_max(net(torch.cat([bits[s], feat[t]], 1), valid), valid)[1]
+
+    def values(self, net: nn.Module, rows: np.ndarray, masks) -> torch.Tensor:
+        """net's Q at the given rows, in its columns (`columns`)."""
+        bits, feat, s, t = self._inputs(rows)
+        if hasattr(net, "q_labels"):
+            return net.q_labels(net.first_layer_pairs(bits, feat, s, t), masks)
+        return net(torch.cat([bits[s], feat[t]], 1), torch.from_numpy(self.valid[rows]))
 
 
 def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict, gamma: float,
@@ -745,12 +782,16 @@ def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict,
         return y
     tasks = np.asarray(batch["tasks"])[cont].astype(np.int64)
     n, k, A = len(cont), len(enc.support), enc.n_actions
+    factored = hasattr(online, "mask_bits") and hasattr(target, "q_labels")
+    masks_of = online.mask_bits if factored else (lambda v: None)
     if slots is not None and "slots" in batch:
         sl = slots.encode(batch)[cont]
         valid_c, bits_c, known = slots.valid[sl, 1], slots.bits[sl, 1], slots.known(sl)
+        mb_c = slots.masks[sl, 1] if factored and slots.masks is not None else masks_of(valid_c)
     else:
         sl, known = None, np.zeros(n, dtype=bool)
         valid_c, bits_c = enc.valid_for(nxt[cont], tasks), _bits(enc, nxt[cont])
+        mb_c = masks_of(valid_c)
     unknown = np.flatnonzero(~known)                                    # continuing rows the target must value
     # the distinct completion states, their cached entries and the ones to value afresh
     first: dict = {}
@@ -761,11 +802,16 @@ def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict,
     hit = [cache.entries.get(key) if cache is not None else None for key in keys]
     miss = np.array([j for j, e in enumerate(hit) if e is None], dtype=np.int64)
     valid_b = np.empty((U, k, A), dtype=bool)
+    mb_b = np.empty((U, k, mb_c.shape[1]), dtype=bool) if factored else None
     if len(miss):
         valid_b[miss] = _support_valid(enc, uniq[miss]).reshape(len(miss), k, A)
+        if factored:
+            mb_b[miss] = masks_of(valid_b[miss].reshape(-1, A)).reshape(len(miss), k, -1)
     for j, e in enumerate(hit):
         if e is not None:
             valid_b[j] = e[0]
+            if factored:
+                mb_b[j] = e[2]
     # rows: the continuing (s', τ), then each completion state with every task of the support
     valid = np.concatenate([valid_c, valid_b.reshape(U * k, A)])
     pairs = _Pairs(enc, np.concatenate([bits_c, _bits(enc, uniq)]).astype(np.float32),
@@ -774,33 +820,34 @@ def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict,
     several = np.flatnonzero(valid.sum(1) > 1)                          # rows whose argmax needs the online net
     rows_t = np.concatenate([unknown, (n + miss[:, None] * k + np.arange(k)).reshape(-1)]).astype(np.int64)
     nu = len(unknown)
-    factored = hasattr(online, "head_masks") and hasattr(target, "q_labels")
     with torch.inference_mode():
-        masks = online.head_masks(torch.from_numpy(valid)) if factored else None
+        masks = online.masks_from_bits(np.concatenate([mb_c, mb_b.reshape(U * k, mb_c.shape[1])])) if factored else None
         pick = lambda rows: None if masks is None else FactoredQNet.select_masks(masks, torch.from_numpy(rows))
-        best = torch.from_numpy(valid.argmax(1))                         # the one valid action, where one
+        col = _Pairs.columns(target, A)
+        best = col[torch.from_numpy(valid.argmax(1))]                   # the one valid action, where one
         if len(several):
             best[torch.from_numpy(several)] = pairs.best(online, several, pick(several))
-        qt, col = pairs.values(target, rows_t, pick(rows_t))
+        qt = pairs.values(target, rows_t, pick(rows_t))
         picked = torch.empty(len(valid), dtype=torch.float32)
         rt = torch.from_numpy(rows_t)
-        picked[rt] = qt.gather(1, col[best[rt]][:, None])[:, 0]
+        picked[rt] = qt.gather(1, best[rt][:, None])[:, 0]
         if sl is not None:                    # the slots' target values, kept and reused
             kn = np.flatnonzero(known)
             if len(kn):
-                picked[torch.from_numpy(kn)] = torch.from_numpy(slots.q[sl[kn], col[best[torch.from_numpy(kn)]].numpy()])
+                picked[torch.from_numpy(kn)] = torch.from_numpy(slots.q[sl[kn], best[torch.from_numpy(kn)].numpy()])
             if nu:
                 slots.store(sl[unknown], qt[:nu].numpy())
         held = [j for j, e in enumerate(hit) if e is not None]
         if held:                              # the cached target values at the online argmax
-            cols = col[best].numpy()[n:].reshape(U, k)[held]
+            cols = best.numpy()[n:].reshape(U, k)[held]
             qh = np.stack([hit[j][1] for j in held])
             rows_h = torch.from_numpy((n + np.array(held)[:, None] * k + np.arange(k)).reshape(-1))
             picked[rows_h] = torch.from_numpy(np.take_along_axis(qh, cols[:, :, None], 2).reshape(-1))
         if cache is not None:
             qt = qt.numpy()
             for i, j in enumerate(miss[:max(0, cache.max_states - len(cache.entries))]):
-                cache.entries[keys[j]] = (valid_b[j].copy(), qt[nu + i * k:nu + (i + 1) * k].copy())
+                cache.entries[keys[j]] = (valid_b[j].copy(), qt[nu + i * k:nu + (i + 1) * k].copy(),
+                                          None if mb_b is None else mb_b[j].copy())
     y[torch.from_numpy(cont)] += gamma * picked[:n]
     if len(comp):
         p = torch.from_numpy(enc.task_prob[enc.support]).float()

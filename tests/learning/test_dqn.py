@@ -233,6 +233,7 @@ def test_every_parameter_steps_as_under_the_per_head_forward(minimal, tmp_path):
         t.env_step(1.0)
     t.update()
     assert all(p.grad is not None for p in t.net.parameters())
-    assert len(t.opt.state) == len(list(t.net.parameters()))
-    assert all(float(s["step"]) == 1.0 for s in t.opt.state.values())
+    state = t.opt.state_dict()["state"]
+    assert len(state) == len(list(t.net.parameters()))
+    assert all(float(s["step"]) == 1.0 for s in state.values())
     assert torch.isfinite(torch.cat([p.detach().reshape(-1) for p in t.net.parameters()])).all()

@@ -517,7 +517,7 @@ def test_slot_cache_gives_the_same_targets_and_observations(two_room, enc):
                                     for b in [fixed_minibatch(two_room, enc, n, seed)] for i in range(n)]
     fill(demos, 30, 10)
     fill(agent, 40, 11)
-    slots, rng = SlotCache(enc, demos.capacity + agent.capacity), np.random.default_rng(0)
+    slots, rng = SlotCache(enc, demos.capacity + agent.capacity, online.mask_bits), np.random.default_rng(0)
     for round_ in range(4):
         if round_ == 2:
             fill(agent, 25, 12)                          # rewritten slots: new transitions there
@@ -533,9 +533,12 @@ def test_slot_cache_gives_the_same_targets_and_observations(two_room, enc):
                                        expect, rtol=1e-5, atol=1e-4)
             again = td_targets(online, target, enc, b, 0.97, "anticipatory", None, slots)   # all known: no target rows
             torch.testing.assert_close(again, expect, rtol=1e-5, atol=1e-4)
-            obs, valid = slots.observe(b)
+            obs, valid, mask_bits = slots.observe(b)
             assert np.array_equal(obs, enc.observe(b["states"], b["tasks"]))
             assert np.array_equal(valid, enc.valid_for(b["states"], b["tasks"]))
+            # the kept head masks are the network's, of this validity
+            for kept, fresh in zip(online.masks_from_bits(mask_bits), online.head_masks(torch.from_numpy(valid))):
+                assert torch.equal(kept, fresh)
     assert slots.known(b["slots"][b["kinds"] == CONTINUE]).all()
 
 
