@@ -11,6 +11,12 @@ work item: it trains in RUNS/<domain>-<layout>-<horizon>-seed<seed>[-<setting><v
 evaluation, last metrics row) goes to OUT.parts/<run>.json, with its provenance, as soon as
 it ends; a part of the same settings is reused on a rerun (delete it to train again). On a
 multi-node cluster RUNS must be on a shared filesystem, since the runs write there.
+With --deploy, a finished run is also exported (`learning.export`: the float16 checkpoint
+CHECKPOINTS/rl-<horizon>-<layout>-seed<seed>[-<setting><value>...].pt and RESULTS/training-....json)
+and evaluated greedily on the canonical sequences (`rl-greedy`, RESULTS/rl-greedy-....json):
+what Table A.4's greedy rows need, per seed, in one command:
+
+    python -m experiments.sweep --layout two-room --horizon myopic,anticipatory --seed 0,4,8,16 --runs runs/dqn --deploy
 
 --kind guided: the rl-guided agent (the value-guided Bellman–Novelty search) on the
 canonical sequences (default: the development split 1,3,6) for every β × budget × depth cap; each (setting, sequence) is a work
@@ -89,9 +95,23 @@ def train_item(item: dict) -> dict:
     rows = [json.loads(line) for line in trainer.metrics.read_text().splitlines() if line.strip()] \
         if trainer.metrics.is_file() else []
     last_row = next((r for r in reversed(rows) if "eval" not in r), {})
-    return {"run": item["out"], "config": dataclasses.asdict(cfg), "steps": trainer.step,
-            "tasks": trainer.tasks_done, "best": trainer.best,
-            "last": {k: v for k, v in last_row.items() if k not in TIMING_KEYS}}
+    out = {"run": item["out"], "config": dataclasses.asdict(cfg), "steps": trainer.step,
+           "tasks": trainer.tasks_done, "best": trainer.best,
+           "last": {k: v for k, v in last_row.items() if k not in TIMING_KEYS}}
+    if item.get("deploy"):
+        out["deployed"] = deploy(model, Path(item["out"]), item["deploy"])
+    return out
+
+
+def deploy(model, run: Path, paths: dict) -> dict:
+    """Export a finished run (compact checkpoint, key figures) and play its greedy policy on the
+    sequences; the greedy figures and where everything went."""
+    from learning.export import export
+
+    export(run, Path(paths["checkpoint"]), Path(paths["figures"]))
+    agent = agent_class("rl-greedy").from_args(argparse.Namespace(checkpoint=paths["checkpoint"]), model)
+    r = evaluate(model, agent, paths["sequences"], paths["greedy"], progress=False, reference=reference_path(model))
+    return {**paths, **{k: r[k] for k in ("cost_per_task", "success_rate", "actions_per_task", "improvement_vs_myopic")}}
 
 
 def train_sweep(args, grid: dict, settings: dict, out: Path) -> dict:
@@ -102,10 +122,17 @@ def train_sweep(args, grid: dict, settings: dict, out: Path) -> dict:
     domain_name = Path(args.domain).resolve().name
     items, names = [], []
     for p in points:
-        name = f"{domain_name}-{p['layout']}-{p['horizon']}-seed{p['seed']}" + "".join(f"-{a}{p[a]}" for a in varied)
+        suffix = "".join(f"-{a}{p[a]}" for a in varied)
+        name = f"{domain_name}-{p['layout']}-{p['horizon']}-seed{p['seed']}" + suffix
         items.append({"domain": args.domain, "layout": p["layout"], "horizon": p["horizon"], "seed": p["seed"],
                       "settings": {**settings, **{a: p[a] for a in axes if a not in GRID}},
                       "out": str(Path(args.runs) / name)})
+        if args.deploy:
+            short = f"{p['horizon']}-{p['layout']}-seed{p['seed']}{suffix}"
+            items[-1]["deploy"] = {"checkpoint": f"{args.checkpoints}/rl-{short}.pt",
+                                   "figures": f"{args.results}/training-{short}.json",
+                                   "greedy": f"{args.results}/rl-greedy-{short}.json",
+                                   "sequences": cli.parse_ids(args.sequences)}
         names.append(name)
     parts = Path(f"{out}.parts")
     results: dict = {}
@@ -134,6 +161,8 @@ def train_sweep(args, grid: dict, settings: dict, out: Path) -> dict:
         rows.append({"name": name, **p, "run": r["result"]["run"], "steps": r["result"]["steps"],
                      "tasks": r["result"]["tasks"], "best_step": best.get("step"), "best_eval": best.get("eval"),
                      "last": r["result"]["last"], "seconds": r["provenance"].get("seconds")})
+        if "deployed" in r["result"]:
+            rows[-1]["greedy"] = r["result"]["deployed"]
     return {"kind": "train", "domain": domain_name, "grid": grid, "settings": settings, "points": rows,
             "items_run": len(todo), "items_reused": len(items) - len(todo)}, wall
 
@@ -187,6 +216,10 @@ def main() -> None:
     train = p.add_argument_group("--kind train (a comma list or range makes an axis of the grid)")
     train.add_argument("--horizon", default="myopic,anticipatory", help="(default: %(default)s)")
     train.add_argument("--runs", default="runs/sweep", help="folder of the run folders (default: %(default)s)")
+    train.add_argument("--deploy", action="store_true",
+                       help="export each finished run and evaluate it greedily on --sequences (default there: all)")
+    train.add_argument("--checkpoints", default="checkpoints", help="--deploy: folder of the compact checkpoints "
+                                                                    "(default: %(default)s)")
     docs = cli.field_docs(Config)
     for f in dataclasses.fields(Config):
         if f.name in ("domain", "layout", "horizon", "out"):
@@ -201,9 +234,14 @@ def main() -> None:
     guided.add_argument("--depth-cap", default=None, help="depths of open nodes, e.g. 10,20")
     guided.add_argument("--reference", default="internal", choices=PLANNERS)
     guided.add_argument("--time-limit", type=float, default=60.0, help="reference planner seconds per task")
-    guided.add_argument("--results", default="results/sweeps", help="folder of the per-setting results files")
-    p.set_defaults(sequences="1,3,6")               # guided: the development split, as β was chosen
+    p.add_argument("--results", default=None, help="folder of the results files: guided, one per setting "
+                                                   "(default: results/sweeps); train --deploy (default: results)")
+    p.set_defaults(sequences=None)
     args = p.parse_args()
+    if args.sequences is None:        # guided: the development split, as β was chosen; greedy: every sequence
+        args.sequences = "1,3,6" if args.kind == "guided" else "0-9"
+    if args.results is None:
+        args.results = "results/sweeps" if args.kind == "guided" else "results"
 
     layouts = [x for x in (args.layout or "").split(",") if x] or [None]
     models = [compile_domain(args.domain, layout) for layout in layouts]     # an unknown layout stops here

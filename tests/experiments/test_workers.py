@@ -173,3 +173,32 @@ def test_a_sweep_over_workers_gives_the_serial_results(tiny, tmp_path, serial_sw
     if mode == "workers":                 # a rerun reuses every run's file
         again = sweep(tiny, tmp_path, "spread", *TRAIN, "--runs", "runs/spread", *how)
         assert again["items_reused"] == 2 and points(again) == points(serial)
+
+
+def test_a_deployed_sweep_exports_each_run_and_plays_it_greedily(tiny, tmp_path):
+    """--deploy: each finished run's compact checkpoint, key figures and rl-greedy results, named as
+    learning.export and experiments.evaluate name them; the results file is the greedy evaluation's."""
+    from learning.qnet import load_value_function
+
+    one = [a if a != "0-1" else "1" for a in TRAIN]                      # seed 1 only
+    r = sweep(tiny, tmp_path, "deploy", *one, "--runs", "runs/d", "--deploy", "--sequences", "0-1",
+              "--checkpoints", "ck", "--results", "res")
+    (point,) = r["points"]
+    g = point["greedy"]
+    assert g["checkpoint"] == "ck/rl-anticipatory-grid-seed1.pt" and g["sequences"] == [0, 1]
+    played = json.loads((tmp_path / "res" / "rl-greedy-anticipatory-grid-seed1.json").read_text())
+    assert played["agent"] == "rl-greedy" and played["cost_per_task"] == g["cost_per_task"]
+    assert played["config"]["checkpoint"] == "ck/rl-anticipatory-grid-seed1.pt"
+    figures = json.loads((tmp_path / "res" / "training-anticipatory-grid-seed1.json").read_text())
+    assert figures["seed"] == 1 and figures["steps"] == 120
+    # the compact checkpoint acts as the run's best.pt on the grid
+    model = compile_domain(tiny, "grid")
+    full = load_value_function(tmp_path / "runs" / "d" / "tiny-grid-anticipatory-seed1" / "best.pt", model)
+    small = load_value_function(tmp_path / g["checkpoint"], model)
+    from tests.conftest import random_walk_states
+    states = random_walk_states(model, 30, seed=4)
+    for t in range(len(model.tasks)):
+        assert list(full.greedy(states, t)) == list(small.greedy(states, t))
+    again = sweep(tiny, tmp_path, "deploy", *one, "--runs", "runs/d", "--deploy", "--sequences", "0-1",
+                  "--checkpoints", "ck", "--results", "res")
+    assert again["items_reused"] == 1 and again["points"][0]["greedy"] == g
