@@ -134,7 +134,7 @@ def w(tmp_path_factory):
     torch.save({"net": CreatesFile(marker), "dims": {}}, t / "hostile.pt")
     with open(t / "hostile-bare.pt", "wb") as f:
         pickle.dump({"net": CreatesFile(marker), "dims": {}}, f)
-    (t / "truncated.pt").write_bytes(Path("checkpoints/rl-myopic-two-room-seed1.pt").read_bytes()[:5000])
+    (t / "truncated.pt").write_bytes(Path("checkpoints/rl-myopic-two-room-seed0.pt").read_bytes()[:5000])
     torch.save({"weights": torch.zeros(3)}, t / "foreign.pt")
     states = {"two-places.json": '["(robot-at shelf)", "(robot-at fountain)"]', "nowhere.json": "[]",
               "unbalanced.json": '["(robot-at shelf"]', "malformed.json": '["(robot-at shelf)"',
