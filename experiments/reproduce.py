@@ -60,7 +60,7 @@ def run_missing(rows, ctx: Context, ids=ALL, progress: bool = True, via: str = "
 
     Each written file's provenance names the run's own `experiments.evaluate` command and `via` (this command).
     """
-    from oracles.myopic import reference_path
+    from oracles.command import reference_path
     from planning.world.runner import evaluate
 
     todo = [run for row in rows for run in row.runs if needs_run(load_run(run, ctx), ids)]

@@ -18,7 +18,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from learning.guided import ValueGuidedPlanner
-from oracles.myopic import reference_path
+from oracles.command import reference_path
 from planning import cli
 from planning.atomic import write_json
 from planning.domain.compiler import compile_domain

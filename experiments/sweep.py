@@ -39,7 +39,8 @@ import sys
 import time
 from pathlib import Path
 
-from oracles.myopic import PLANNERS, reference_path
+from oracles.command import reference_path
+from oracles.myopic import PLANNERS
 from planning import cli
 from planning.atomic import write_json
 from planning.domain.compiler import compile_domain

@@ -7,9 +7,16 @@ against the myopic oracle's results file of the layout.
 """
 from __future__ import annotations
 
-from oracles.myopic import reference_path
 from planning import cli
 from planning.world.runner import default_out, evaluate
+
+REFERENCE = "results/myopic-oracle-{layout}.json"
+"""The myopic oracle's results file (Fast Downward): every improvement figure is measured against it."""
+
+
+def reference_path(model) -> str:
+    """The myopic oracle's results file of a layout."""
+    return REFERENCE.format(layout=model.layout)
 
 
 def run_options(p) -> None:

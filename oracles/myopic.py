@@ -23,14 +23,7 @@ from planning.world.agents import PlanFunction, Planner, Reply
 from planning.world.runner import play_task
 from planning.world.task_stream import PersistentWorld, TaskStream
 
-REFERENCE = "results/myopic-oracle-{layout}.json"
-"""The myopic oracle's results file (Fast Downward): every improvement figure is measured against it."""
-
-
-def reference_path(model) -> str:
-    """The myopic oracle's results file of a layout."""
-    return REFERENCE.format(layout=model.layout)
-
+from oracles.command import play, run_options
 
 PLANNERS = ("fast-downward", "internal")
 
@@ -146,8 +139,6 @@ def type_table(result: dict) -> str:
 
 
 def main() -> None:
-    from oracles.command import play, run_options
-
     p = cli.parser(__doc__.splitlines()[0], sequences=True)
     MyopicOracle.options(p)
     run_options(p)
