@@ -314,7 +314,8 @@ def training_runs() -> list[str]:
         cell = lambda m, k, digits=2: num(at[m][k], digits) if m in at and at[m].get(k) is not None else "—"
         best = d.get("best_greedy") or {}
         body.append([f"`{path.name}`", d.get("layout"), d.get("horizon"), d.get("seed"),
-                     " / ".join(str(d.get(k, "—")) for k in ("eps_schedule", "explore", "demo_planner")),
+                     " / ".join(str(d.get(k, "—")) for k in ("eps_schedule", "explore", "demo_planner"))
+                     + ("" if d.get("target_bound", "none") == "none" else f" / target bound {d['target_bound']}"),
                      f"{d.get('steps', 0):,}",
                      " / ".join(cell(m, "success_last_100") for m in ("50000", "100000", "250000", "500000")),
                      cell(str(max(map(int, at), default=0)), "selected_q", 1),

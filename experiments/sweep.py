@@ -117,13 +117,16 @@ def deploy(model, run: Path, paths: dict) -> dict:
 
 def train_sweep(args, grid: dict, settings: dict, out: Path) -> dict:
     """Every point of `grid` (axis -> values) as a training run; the merged outcome."""
+    from learning.dqn import bound_suffix
+
     axes = list(grid)
     points = [dict(zip(axes, combo)) for combo in itertools.product(*grid.values())]
     varied = [a for a in axes if a not in GRID and len(grid[a]) > 1]
     domain_name = Path(args.domain).resolve().name
     items, names = [], []
     for p in points:
-        suffix = "".join(f"-{a}{p[a]}" for a in varied)
+        # a run with a target bound keeps its files apart under learning.dqn's own suffix
+        suffix = "".join(f"-{a}{p[a]}" for a in varied if a != "target_bound") + bound_suffix({**settings, **p})
         name = f"{domain_name}-{p['layout']}-{p['horizon']}-seed{p['seed']}" + suffix
         items.append({"domain": args.domain, "layout": p["layout"], "horizon": p["horizon"], "seed": p["seed"],
                       "settings": {**settings, **{a: p[a] for a in axes if a not in GRID}},

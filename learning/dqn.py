@@ -110,6 +110,11 @@ class Config:
     """task-stream seed of the demonstrations (shared across training seeds)"""
     demo_fraction: float = 0.2
     """share of every minibatch reserved for demonstrations"""
+    target_bound: str = "none"
+    """none (the thesis's targets); return: cap each TD target at the largest return a task can earn,
+    R_goal for a myopic value (its rewards before the completion are costs) and R_goal/(1-γ) for an
+    anticipatory one; a fix the thesis does not have, for runs whose Q grows past R_goal. A run with a
+    bound keeps its files apart (run folder and checkpoint names end in -bound-<value>)"""
     eval_every: int = 25_000
     """steps between greedy evaluations (best checkpoint selection)"""
     eval_tasks: int = 100
@@ -122,9 +127,16 @@ class Config:
     """run folder (default runs/dqn/<domain>-<layout>-<horizon>-seed<seed>)"""
 
 
-CHOICES = {"eps_schedule": ("time-constant", "reach"), "explore": ("factored", "uniform")}
-LEGACY = {"eps_schedule": "reach", "explore": "uniform", "demo_planner": "internal"}
+CHOICES = {"eps_schedule": ("time-constant", "reach"), "explore": ("factored", "uniform"),
+           "target_bound": ("none", "return")}
+LEGACY = {"eps_schedule": "reach", "explore": "uniform", "demo_planner": "internal", "target_bound": "none"}
 """What a checkpoint written before these settings existed was trained with."""
+
+
+def bound_suffix(cfg) -> str:
+    """What a run with a target bound adds to its folder and checkpoint names ('' for the thesis's targets)."""
+    bound = cfg.get("target_bound", "none") if isinstance(cfg, dict) else cfg.target_bound
+    return "" if bound in (None, "none") else f"-bound-{bound}"
 
 
 def keep_freed_memory() -> None:
@@ -267,12 +279,14 @@ class Trainer:
         self.cfg, self.progress = cfg, progress
         self.model = model = compile_domain(cfg.domain, cfg.layout)
         cfg.layout = model.layout
-        self.out = Path(cfg.out or f"runs/dqn/{model.name}-{model.layout}-{cfg.horizon}-seed{cfg.seed}")
+        self.out = Path(cfg.out or f"runs/dqn/{model.name}-{model.layout}-{cfg.horizon}-seed{cfg.seed}{bound_suffix(cfg)}")
         cli.check_writable(self.out, folder=True)     # before the demonstrations are planned
         cfg.out = str(self.out)
         self.scale = cost_scale(model)
         self.r_goal = float(cfg.goal_reward if cfg.goal_reward is not None else goal_reward(model))
         cfg.goal_reward = self.r_goal
+        self.y_max = None if cfg.target_bound == "none" else \
+            self.r_goal if cfg.horizon == "myopic" else self.r_goal / (1.0 - cfg.gamma)
         stream_cfg = model.config.get("stream", {})
         self.terminal_reset = bool(stream_cfg.get("terminal_reset", False))
         self.per_reset = stream_cfg.get("tasks_per_reset", 50)
@@ -348,8 +362,8 @@ class Trainer:
     def targets(self, batch: dict) -> torch.Tensor:
         """The minibatch's Double-DQN targets (lines 9-19)."""
         cfg = self.cfg
-        return td_targets(self.net, self.target, self.enc, batch, cfg.gamma, cfg.horizon, self.boundary,
-                          self.slots)
+        y = td_targets(self.net, self.target, self.enc, batch, cfg.gamma, cfg.horizon, self.boundary, self.slots)
+        return y if self.y_max is None else y.clamp_(max=self.y_max)
 
     def descend(self, batch: dict, y: torch.Tensor, parts: dict | None = None) -> None:
         """The gradient step on the Huber loss toward y (line 20); `parts` collects its CPU seconds."""

@@ -43,7 +43,7 @@ from planning.errors import DomainError
 from planning.world.runner import results_provenance
 
 from learning.plain import to_half
-from learning.dqn import LEGACY, read_metrics
+from learning.dqn import LEGACY, bound_suffix, read_metrics
 from learning.qnet import read_checkpoint, save_checkpoint
 
 MILESTONES = (50_000, 100_000, 250_000, 500_000)
@@ -165,7 +165,7 @@ def default_names(run: Path, gnn: bool) -> tuple[str, str]:
         name = f"gnn-{'augmented' if augmented else 'faithful'}-{p.get('layout')}-seed{cfg.get('seed')}"
         return f"checkpoints/{name}.pt", f"results/training-{name}.json"
     cfg = read_checkpoint(run / "best.pt").get("config", {})
-    name = f"{cfg.get('horizon')}-{cfg.get('layout')}-seed{cfg.get('seed')}"
+    name = f"{cfg.get('horizon')}-{cfg.get('layout')}-seed{cfg.get('seed')}{bound_suffix(cfg)}"
     return f"checkpoints/rl-{name}.pt", f"results/training-{name}.json"
 
 

@@ -4,7 +4,7 @@ import json
 import numpy as np
 import pytest
 
-from learning.dqn import Config, Trainer, domain_defaults, epsilon, random_action
+from learning.dqn import Config, Trainer, bound_suffix, domain_defaults, epsilon, random_action
 from learning.qnet import COMPLETE, CONTINUE, TERMINAL, ValueFunction
 from learning.replay import Replay, mixed_batch
 from planning.domain.compiler import compile_domain
@@ -237,3 +237,39 @@ def test_every_parameter_steps_as_under_the_per_head_forward(minimal, tmp_path):
     assert len(state) == len(list(t.net.parameters()))
     assert all(float(s["step"]) == 1.0 for s in state.values())
     assert torch.isfinite(torch.cat([p.detach().reshape(-1) for p in t.net.parameters()])).all()
+
+
+def test_target_bound_caps_the_targets_and_keeps_the_run_apart(minimal, tmp_path):
+    """--target-bound return (not the thesis's): no target above R_goal for a myopic value, R_goal/(1-γ) for an
+    anticipatory one; without it the targets are td_targets' own. A bound run has its own folder and checkpoint
+    name, and a run resumes only under the bound it was trained with."""
+    import torch
+
+    from learning.export import default_names
+    from planning.errors import DomainError
+
+    for horizon in ("myopic", "anticipatory"):
+        plain = Trainer(small_config(minimal, tmp_path / f"p-{horizon}", steps=0, demo_tasks=20, hidden=32,
+                                     horizon=horizon), progress=False)
+        bound = Trainer(small_config(minimal, tmp_path / f"b-{horizon}", steps=0, demo_tasks=20, hidden=32,
+                                     horizon=horizon, target_bound="return"), progress=False)
+        for _ in range(200):
+            plain.env_step(1.0)
+        bound.memory = plain.memory
+        bound.net.load_state_dict(plain.net.state_dict())
+        for t in (plain, bound):
+            with torch.no_grad():
+                t.target.value.bias.fill_(1e4)         # values far past any return a task can earn
+        batch = mixed_batch(plain.memory, plain.demos, 64, 0.2, np.random.default_rng(0))
+        y_plain, y_bound = plain.targets(batch), bound.targets(batch)
+        cap = plain.r_goal if horizon == "myopic" else plain.r_goal / (1 - plain.cfg.gamma)
+        assert y_plain.max() > cap and torch.equal(y_bound, y_plain.clamp(max=cap))
+    assert bound_suffix(bound.cfg) == "-bound-return" and bound_suffix(plain.cfg) == ""
+    bound.step = 1
+    bound.save()
+    (bound.out / "best.pt").write_bytes((bound.out / "last.pt").read_bytes())
+    assert default_names(bound.out, gnn=False)[0] == "checkpoints/rl-anticipatory-grid-seed0-bound-return.pt"
+    again = Trainer(small_config(minimal, tmp_path / "b-anticipatory", steps=0, demo_tasks=20, hidden=32,
+                                 horizon="anticipatory"), progress=False)
+    with pytest.raises(DomainError, match="target_bound"):
+        again.resume(bound.out / "last.pt")
