@@ -8,7 +8,10 @@
 - The compact checkpoint is the run's best.pt (the network the run selected: the
   best greedy evaluation, the lowest validation L1) with its weights in float16:
   half the bytes, loaded safely (weights_only) by every agent and cast back to
-  float32 there. It keeps the run's step or epoch, evaluation, settings and the
+  float32 there. A Q-network stays in float32 if float16 would change its greedy
+  action on one of 1,000 probe (state, task) pairs to one its float32 values lower
+  by a tie (0.01) or more: a diverged network's values are so large that float16's
+  rounding moves them by more than their action gaps. It keeps the run's step or epoch, evaluation, settings and the
   sha256 of the best.pt it came from. Default: checkpoints/rl-<horizon>-<layout>-seed<N>.pt,
   checkpoints/gnn-<faithful|augmented>-<layout>-seed<N>.pt.
 - The key figures of a Q-learning run are what Appendix A.2 reports of it, read
@@ -42,24 +45,47 @@ from planning.atomic import sha256, write_json
 from planning.errors import DomainError
 from planning.world.runner import results_provenance
 
-from learning.plain import to_half
-from learning.dqn import LEGACY, bound_suffix, read_metrics
-from learning.qnet import read_checkpoint, save_checkpoint
+from planning.domain.compiler import compile_domain
+
+from learning.plain import full_precision, to_half
+from learning.dqn import LEGACY, Config, bound_suffix, read_metrics
+from learning.qnet import read_checkpoint, save_checkpoint, value_function
 
 MILESTONES = (50_000, 100_000, 250_000, 500_000)
 PRECISION = "float16"
+PROBE_STATES = 1000           # (state, task) pairs on which a float16 checkpoint must act as its float32 source
+TIE = 0.01                    # Q gaps below this are ties (trained values are tens to hundreds)
 
 
-def compact(payload: dict, source: str | None = None) -> dict:
-    """The agent-facing part of a Q-network checkpoint, float tensors in float16 (`read_checkpoint` casts them back)."""
+def compact(payload: dict, source: str | None = None, half: bool = True) -> dict:
+    """The agent-facing part of a Q-network checkpoint, float tensors in float16 (`read_checkpoint` casts them
+    back); `half=False` keeps them in float32."""
     keep = {k: payload[k] for k in ("dims", "signature", "step", "eval", "config") if k in payload}
-    return {**keep, "net": to_half(payload["net"]), "precision": PRECISION, **({"source_sha256": source} if source else {})}
+    net, precision = (to_half(payload["net"]), PRECISION) if half else (payload["net"], "float32")
+    return {**keep, "net": net, "precision": precision, **({"source_sha256": source} if source else {})}
 
 
-def compact_gnn(payload: dict, source: str | None = None) -> dict:
-    """A GNN checkpoint with its weights in float16 (`read_gnn_checkpoint` casts them back)."""
-    return {**payload, "model": to_half(payload["model"]), "precision": PRECISION,
-            **({"source_sha256": source} if source else {})}
+def greedy_loss(payload: dict, small: dict, model, n: int = PROBE_STATES) -> float:
+    """The most value the compact checkpoint's greedy action gives up, as the full network values it, over
+    `n` probe (state, task) pairs along seeded random walks of `model` (0 where it acts as the full one)."""
+    states = model.random_walk_states(n, seed=0)
+    tasks = np.random.default_rng(0).integers(len(model.tasks), size=n)
+    full, half = value_function(payload, model), value_function(full_precision(dict(small), "net"), model)
+    packed = full.enc.pack(states)
+    obs, valid = full.enc.observe(packed, tasks), full.enc.valid_for(packed, tasks)
+    q = full.fast(obs, valid)
+    rows = np.arange(n)
+    return float(np.max(q[rows, q.argmax(1)] - q[rows, half.fast(obs, valid).argmax(1)]))
+
+
+def faithful_compact(payload: dict, source: str | None = None) -> tuple[dict, float]:
+    """(compact checkpoint, float16's greedy loss): float16 weights where they change no greedy action by more
+    than a tie (TIE), float32 otherwise (a network whose values are so large that float16's rounding moves
+    them by more than their action gaps, as a diverged run's)."""
+    cfg = payload.get("config", {})
+    small = compact(payload, source)
+    loss = greedy_loss(payload, small, compile_domain(cfg.get("domain", Config.domain), cfg["layout"]))
+    return (small if loss < TIE else compact(payload, source, half=False)), loss
 
 
 def split_metrics(path: Path) -> tuple[list[dict], list[dict]]:
@@ -190,11 +216,12 @@ def export(run: Path, out: Path, figures: Path | None) -> tuple[dict, dict]:
     """Write the compact checkpoint (and the key figures); returns (compact payload, figures)."""
     best = run / "best.pt"
     payload = read_checkpoint(best)
-    small = compact(payload, sha256(best))
+    small, loss = faithful_compact(payload, sha256(best))
     save_checkpoint(out, small)
     logs, evals = split_metrics(run / "metrics.jsonl")
     cfg = payload.get("config", {})
     figs = {"run": str(run), "checkpoint": str(out), "checkpoint_step": payload.get("step"),
+            "checkpoint_precision": small["precision"], "float16_greedy_loss": loss,
             **{k: cfg.get(k) for k in ("domain", "layout", "horizon", "seed", "steps", "gamma")},
             **{k: cfg.get(k, was) for k, was in LEGACY.items()},
             **key_figures(logs, evals)}
@@ -237,7 +264,9 @@ def main() -> None:
             return
         small, figs = export(folder, out, figures)
         at = figs.get("at", {})
-        print(f"wrote {out} ({out.stat().st_size / 1e3:.0f} KB, {PRECISION}, step {small.get('step')}) "
+        kept = "" if small["precision"] == PRECISION else (f": float16 would give up {figs['float16_greedy_loss']:,.4g}"
+                                                        f" of value on a probe state's greedy action")
+        print(f"wrote {out} ({out.stat().st_size / 1e3:.0f} KB, {small['precision']}{kept}, step {small.get('step')}) "
               f"and {figures}: {figs['steps']:,} steps in {figs['train_hours']} h; success (last 100) "
               + ", ".join(f"{int(k) // 1000}k {v['success_last_100']:.2f}" for k, v in at.items()))
 

@@ -886,7 +886,12 @@ def build_network(enc: Encoding, hidden: int = 256, embed: int = 16, head_hidden
 
 def load_value_function(path, model) -> ValueFunction:
     """The greedy value of a checkpoint, checked against the layout it is used on."""
-    payload = read_checkpoint(path)
+    return value_function(read_checkpoint(path), model, path)
+
+
+def value_function(payload: dict, model, path="checkpoint") -> ValueFunction:
+    """The greedy value of a loaded checkpoint payload (float32 weights), checked against the layout;
+    `path` names it in errors."""
     enc = Encoding(model)
     sig = payload.get("signature", {})
     mine = enc.signature()

@@ -29,15 +29,7 @@ def minimal():
 
 def random_walk_states(model, n: int, seed: int, walk: int = 40) -> list[int]:
     """n states (repeats allowed) along seeded random walks from world resets."""
-    rng = np.random.default_rng(seed)
-    states = []
-    while len(states) < n:
-        s = model.reset_state(rng)
-        for _ in range(walk):
-            states.append(s)
-            succ = model.successors(s)
-            s = succ[rng.integers(len(succ))][1]
-    return states[:n]
+    return model.random_walk_states(n, seed, walk)
 
 
 def run_plan(model, state: int, names: list[str]) -> tuple[int, int]:

@@ -220,3 +220,16 @@ class Model:
                 every |= c
             state = (state & ~every) | choices[k]
         return state
+
+    def random_walk_states(self, n: int, seed: int, walk: int = 40) -> list[int]:
+        """n states (repeats allowed) along seeded random walks of `walk` steps from world resets:
+        a cheap spread of reachable states to probe a value or a heuristic on."""
+        rng = np.random.default_rng(seed)
+        states = []
+        while len(states) < n:
+            s = self.reset_state(rng)
+            for _ in range(walk):
+                states.append(s)
+                succ = self.successors(s)
+                s = succ[rng.integers(len(succ))][1]
+        return states[:n]

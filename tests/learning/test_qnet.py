@@ -467,7 +467,9 @@ from pathlib import Path  # noqa: E402
 @pytest.mark.parametrize("path", sorted(str(p) for p in Path("checkpoints").glob("rl-*.pt")))
 def test_committed_checkpoints_act_as_before(path):
     """Every committed Q-network checkpoint loads and its greedy actions on 50 states are the reference forward's,
-    through the training forward and through load_value_function."""
+    through the training forward and through load_value_function. Float32 rounding is relative to a row's
+    largest value, so the values agree to that scale and the actions wherever their gap exceeds it (a diverged
+    network's values reach 1e10)."""
     from planning.domain.compiler import compile_domain
     layout = "three-room" if "three-room" in path else "two-room"
     model = compile_domain("domains/restaurant", layout)
@@ -479,9 +481,14 @@ def test_committed_checkpoints_act_as_before(path):
     with torch.no_grad():
         ref = reference_forward(vf.net, obs, valid)
         new = vf.net(obs, valid)
-    torch.testing.assert_close(new[valid], ref[valid], rtol=1e-5, atol=1e-4)
-    assert torch.equal(new.argmax(1), ref.argmax(1))
-    assert np.array_equal([int(vf.greedy([s], int(t))[0]) for s, t in zip(states, tasks)], ref.argmax(1).numpy())
+    tol = 1e-4 + 1e-5 * ref.masked_fill(~valid, 0).abs().amax(1, keepdim=True)
+    assert ((new - ref).abs() <= tol)[valid].all()
+    top2 = ref.masked_fill(~valid, -float("inf")).topk(2, 1).values
+    clear = (top2[:, 0] - top2[:, 1] > 2 * tol[:, 0]).numpy()
+    assert clear.sum() >= 45
+    assert torch.equal(new.argmax(1)[clear], ref.argmax(1)[clear])
+    greedy = np.array([int(vf.greedy([s], int(t))[0]) for s, t in zip(states, tasks)])
+    assert np.array_equal(greedy[clear], ref.argmax(1).numpy()[clear])
 
 
 def test_live_greedy_acts_as_the_forward_and_follows_the_weights(restaurant):
@@ -580,6 +587,23 @@ def test_compact_checkpoint_acts_as_the_full_one(three_room, tmp_path):
     greedy = lambda vf: [int(vf.greedy([s], int(t))[0]) for s, t in zip(states, tasks)]
     assert greedy(a) == greedy(b)
     np.testing.assert_allclose(b.v_ap(states[:20]), a.v_ap(states[:20]), rtol=2e-3)
+
+
+@pytest.mark.parametrize("path, precision", [("checkpoints/rl-anticipatory-three-room-seed0.pt", "float16"),
+                                             ("checkpoints/rl-myopic-three-room-seed4.pt", "float32")])
+def test_export_keeps_float32_where_float16_would_change_the_greedy_actions(path, precision):
+    """A healthy network's float16 weights swap at most near-tied actions; the diverged three-room myopic
+    seed-4 network's values (about 1e10) move by more than their gaps, so its export stays float32."""
+    from learning.export import TIE, faithful_compact
+    from learning.qnet import read_checkpoint
+    payload = read_checkpoint(path)
+    g = torch.Generator().manual_seed(0)                  # weights float16 cannot hold exactly, as a trainer's
+    payload["net"] = {k: v * (1 + 1e-3 * torch.randn(v.shape, generator=g)) if v.is_floating_point() else v
+                      for k, v in payload["net"].items()}
+    small, loss = faithful_compact(payload)
+    assert small["precision"] == precision
+    assert (loss < TIE) == (precision == "float16")
+    assert all(v.dtype == getattr(torch, precision) for v in small["net"].values() if v.is_floating_point())
 
 
 def test_key_figures_of_a_run():
