@@ -467,9 +467,9 @@ from pathlib import Path  # noqa: E402
 @pytest.mark.parametrize("path", sorted(str(p) for p in Path("checkpoints").glob("rl-*.pt")))
 def test_committed_checkpoints_act_as_before(path):
     """Every committed Q-network checkpoint loads and its greedy actions on 50 states are the reference forward's,
-    through the training forward and through load_value_function. Float32 rounding is relative to a row's
-    largest value, so the values agree to that scale and the actions wherever their gap exceeds it (a diverged
-    network's values reach 1e10)."""
+    through the training forward and through load_value_function. Float32 rounding (which depends on the
+    kernels' summation order) is relative to a row's largest value, so the values agree to 1e-4 of it and the
+    actions wherever their gap exceeds that (a diverged network's values reach 1e10)."""
     from planning.domain.compiler import compile_domain
     layout = "three-room" if "three-room" in path else "two-room"
     model = compile_domain("domains/restaurant", layout)
@@ -481,7 +481,7 @@ def test_committed_checkpoints_act_as_before(path):
     with torch.no_grad():
         ref = reference_forward(vf.net, obs, valid)
         new = vf.net(obs, valid)
-    tol = 1e-4 + 1e-5 * ref.masked_fill(~valid, 0).abs().amax(1, keepdim=True)
+    tol = 1e-4 * ref.masked_fill(~valid, 0).abs().amax(1, keepdim=True).clamp(min=1.0)
     assert ((new - ref).abs() <= tol)[valid].all()
     top2 = ref.masked_fill(~valid, -float("inf")).topk(2, 1).values
     clear = (top2[:, 0] - top2[:, 1] > 2 * tol[:, 0]).numpy()
