@@ -118,6 +118,7 @@ def deploy(model, run: Path, paths: dict) -> dict:
 def train_sweep(args, grid: dict, settings: dict, out: Path) -> dict:
     """Every point of `grid` (axis -> values) as a training run; the merged outcome."""
     from learning.dqn import bound_suffix
+    from learning.export import rl_name
 
     axes = list(grid)
     points = [dict(zip(axes, combo)) for combo in itertools.product(*grid.values())]
@@ -126,13 +127,13 @@ def train_sweep(args, grid: dict, settings: dict, out: Path) -> dict:
     items, names = [], []
     for p in points:
         # a run with a target bound keeps its files apart under learning.dqn's own suffix
-        suffix = "".join(f"-{a}{p[a]}" for a in varied if a != "target_bound") + bound_suffix({**settings, **p})
-        name = f"{domain_name}-{p['layout']}-{p['horizon']}-seed{p['seed']}" + suffix
+        extra = "".join(f"-{a}{p[a]}" for a in varied if a != "target_bound")
+        name = f"{domain_name}-{p['layout']}-{p['horizon']}-seed{p['seed']}{extra}{bound_suffix({**settings, **p})}"
         items.append({"domain": args.domain, "layout": p["layout"], "horizon": p["horizon"], "seed": p["seed"],
                       "settings": {**settings, **{a: p[a] for a in axes if a not in GRID}},
                       "out": str(Path(args.runs) / name)})
         if args.deploy:
-            short = f"{p['horizon']}-{p['layout']}-seed{p['seed']}{suffix}"
+            short = rl_name({**settings, **p}, extra)
             items[-1]["deploy"] = {"checkpoint": f"{args.checkpoints}/rl-{short}.pt",
                                    "figures": f"{args.results}/training-{short}.json",
                                    "greedy": f"{args.results}/rl-greedy-{short}.json",

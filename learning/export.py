@@ -190,9 +190,15 @@ def default_names(run: Path, gnn: bool) -> tuple[str, str]:
                                    "pass --out and --figures") from None
         name = f"gnn-{'augmented' if augmented else 'faithful'}-{p.get('layout')}-seed{cfg.get('seed')}"
         return f"checkpoints/{name}.pt", f"results/training-{name}.json"
-    cfg = read_checkpoint(run / "best.pt").get("config", {})
-    name = f"{cfg.get('horizon')}-{cfg.get('layout')}-seed{cfg.get('seed')}{bound_suffix(cfg)}"
+    name = rl_name(read_checkpoint(run / "best.pt").get("config", {}))
     return f"checkpoints/rl-{name}.pt", f"results/training-{name}.json"
+
+
+def rl_name(cfg: dict, varied: str = "") -> str:
+    """<horizon>-<layout>-seed<N>[varied][-bound-<bound>]: the name a Q-learning run's exported files share
+    (checkpoints/rl-NAME.pt, results/training-NAME.json, results/rl-greedy-NAME.json); `varied` names a
+    sweep's other settings."""
+    return f"{cfg.get('horizon')}-{cfg.get('layout')}-seed{cfg.get('seed')}{varied}{bound_suffix(cfg)}"
 
 
 def export_gnn(run: Path, out: Path, figures: Path | None) -> tuple[dict, dict]:
