@@ -192,3 +192,24 @@ def test_training_curves_leave_out_runs_in_progress(tmp_path, monkeypatch):
     (tmp_path / "results" / "training-myopic-two-room-seed4.json").write_text("{}")
     assert training_logs("two-room", "myopic") == [(4, "runs/dqn/restaurant-two-room-myopic-seed4/metrics.jsonl")]
     assert training_logs("two-room", "anticipatory") == []
+
+
+def test_a_bound_run_is_reported_beside_its_twin(tmp_path, monkeypatch):
+    """The target-bound table pairs each bound run with the thesis-target run of its layout, horizon and seed,
+    and says 'not run' for an evaluation not made."""
+    from experiments.report_reference import target_bound_runs
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "results").mkdir()
+    assert target_bound_runs()[0].startswith("No run with a target bound")
+    write = lambda name, d: (tmp_path / "results" / name).write_text(json.dumps(d))
+    for bound, q in (("none", 5.0e10), ("return", 42.4)):
+        tail = "" if bound == "none" else "-bound-return"
+        write(f"training-myopic-three-room-seed4{tail}.json",
+              {"layout": "three-room", "horizon": "myopic", "seed": 4, "target_bound": bound,
+               "peak_selected_q": {"step": 500_000, "selected_q": q}, "at": {"500000": {"success_last_100": 0.5}}})
+    write("rl-greedy-myopic-three-room-seed4.json", {"success_rate": 0.148, "cost_per_task": 10332.95})
+    write("rl-guided-myopic-three-room-seed4.json", {"cost_per_task": 1467.25, "improvement_vs_myopic": -0.035})
+    rows = [line for line in target_bound_runs() if line.startswith("| three-room")]
+    assert rows == ["| three-room | myopic | 4 | none | 50,000,000,000.0 | 0.50 | 14.8% | 10,333.0 | 1,467.2 | −3.5% |",
+                    "| three-room | myopic | 4 | return | 42.4 | 0.50 | not run | — | not run | — |"]
