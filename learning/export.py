@@ -65,6 +65,12 @@ def compact(payload: dict, source: str | None = None, half: bool = True) -> dict
     return {**keep, "net": net, "precision": precision, **({"source_sha256": source} if source else {})}
 
 
+def compact_gnn(payload: dict, source: str | None = None) -> dict:
+    """A GNN checkpoint with its weights in float16 (`read_gnn_checkpoint` casts them back)."""
+    return {**payload, "model": to_half(payload["model"]), "precision": PRECISION,
+            **({"source_sha256": source} if source else {})}
+
+
 def greedy_loss(payload: dict, small: dict, model, n: int = PROBE_STATES) -> float:
     """The most value the compact checkpoint's greedy action gives up, as the full network values it, over
     `n` probe (state, task) pairs along seeded random walks of `model` (0 where it acts as the full one)."""
