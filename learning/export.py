@@ -89,8 +89,11 @@ def faithful_compact(payload: dict, source: str | None = None) -> tuple[dict, fl
     than a tie (TIE), float32 otherwise (a network whose values are so large that float16's rounding moves
     them by more than their action gaps, as a diverged run's)."""
     cfg = payload.get("config", {})
+    layout = cfg.get("layout") or payload.get("signature", {}).get("layout")
+    if not layout:
+        raise DomainError("checkpoint", "names no layout (config or signature) to probe its float16 copy on")
     small = compact(payload, source)
-    loss = greedy_loss(payload, small, compile_domain(cfg.get("domain", Config.domain), cfg["layout"]))
+    loss = greedy_loss(payload, small, compile_domain(cfg.get("domain", Config.domain), layout))
     return (small if loss < TIE else compact(payload, source, half=False)), loss
 
 
