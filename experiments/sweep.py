@@ -117,7 +117,7 @@ def deploy(model, run: Path, paths: dict) -> dict:
 
 def train_sweep(args, grid: dict, settings: dict, out: Path) -> dict:
     """Every point of `grid` (axis -> values) as a training run; the merged outcome."""
-    from learning.dqn import bound_suffix
+    from learning.dqn import run_name
     from learning.export import rl_name
 
     axes = list(grid)
@@ -128,7 +128,7 @@ def train_sweep(args, grid: dict, settings: dict, out: Path) -> dict:
     for p in points:
         # a run with a target bound keeps its files apart under learning.dqn's own suffix
         extra = "".join(f"-{a}{p[a]}" for a in varied if a != "target_bound")
-        name = f"{domain_name}-{p['layout']}-{p['horizon']}-seed{p['seed']}{extra}{bound_suffix({**settings, **p})}"
+        name = run_name(domain_name, {**settings, **p}, extra)
         items.append({"domain": args.domain, "layout": p["layout"], "horizon": p["horizon"], "seed": p["seed"],
                       "settings": {**settings, **{a: p[a] for a in axes if a not in GRID}},
                       "out": str(Path(args.runs) / name)})

@@ -139,6 +139,13 @@ def bound_suffix(cfg) -> str:
     return "" if bound in (None, "none") else f"-bound-{bound}"
 
 
+def run_name(domain: str, cfg, varied: str = "") -> str:
+    """<domain>-<layout>-<horizon>-seed<N>[varied][-bound-<bound>]: a training run's folder name (under
+    runs/dqn by default); `varied` names a sweep's other settings."""
+    get = cfg.get if isinstance(cfg, dict) else lambda key: getattr(cfg, key)
+    return f"{domain}-{get('layout')}-{get('horizon')}-seed{get('seed')}{varied}{bound_suffix(cfg)}"
+
+
 def keep_freed_memory() -> None:
     """Let glibc's malloc keep freed memory instead of handing it back to the kernel.
 
@@ -279,7 +286,7 @@ class Trainer:
         self.cfg, self.progress = cfg, progress
         self.model = model = compile_domain(cfg.domain, cfg.layout)
         cfg.layout = model.layout
-        self.out = Path(cfg.out or f"runs/dqn/{model.name}-{model.layout}-{cfg.horizon}-seed{cfg.seed}{bound_suffix(cfg)}")
+        self.out = Path(cfg.out or Path("runs/dqn") / run_name(model.name, cfg))
         cli.check_writable(self.out, folder=True)     # before the demonstrations are planned
         cfg.out = str(self.out)
         self.scale = cost_scale(model)
