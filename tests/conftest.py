@@ -27,11 +27,6 @@ def minimal():
     return compile_domain(MINIMAL, "grid")
 
 
-def random_walk_states(model, n: int, seed: int, walk: int = 40) -> list[int]:
-    """n states (repeats allowed) along seeded random walks from world resets."""
-    return model.random_walk_states(n, seed, walk)
-
-
 def run_plan(model, state: int, names: list[str]) -> tuple[int, int]:
     """(final state, total cost) of a plan given by ground action names."""
     cost = 0

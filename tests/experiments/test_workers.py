@@ -195,8 +195,7 @@ def test_a_deployed_sweep_exports_each_run_and_plays_it_greedily(tiny, tmp_path)
     model = compile_domain(tiny, "grid")
     full = load_value_function(tmp_path / "runs" / "d" / "tiny-grid-anticipatory-seed1" / "best.pt", model)
     small = load_value_function(tmp_path / g["checkpoint"], model)
-    from tests.conftest import random_walk_states
-    states = random_walk_states(model, 30, seed=4)
+    states = model.random_walk_states(30, seed=4)
     for t in range(len(model.tasks)):
         assert list(full.greedy(states, t)) == list(small.greedy(states, t))
     again = sweep(tiny, tmp_path, "deploy", *one, "--runs", "runs/d", "--deploy", "--sequences", "0-1",

@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 import torch
 
-from conftest import random_walk_states
 from learning.gnn_dataset import DatasetConfig, label_states, load_dataset, save_dataset
 from learning.gnn_model import (THESIS_FEATURES, THESIS_PARAMETERS, GNNCostModel, InferenceGNN, load_gnn,
                                 parameter_count, read_gnn_checkpoint, save_gnn_checkpoint)
@@ -35,7 +34,7 @@ def encoder(minimal):
 def dataset(minimal, encoder, tmp_path_factory):
     """Every distinct state of seeded random walks on the grid, labelled with the exact C_AP."""
     root = tmp_path_factory.mktemp("gnn-data")
-    states = list(dict.fromkeys(random_walk_states(minimal, 400, 0, walk=20)))
+    states = list(dict.fromkeys(minimal.random_walk_states(400, 0, walk=20)))
     cfg = DatasetConfig(layout="grid", domain="domains/minimal", workers=1, heuristic="hmax")
     labels = label_states(states, cfg, root / "labels.partial.json", progress=False)
     save_dataset(root, minimal, states, labels, {"kinds": ["faithful"] * len(states)}, encoder)
@@ -97,7 +96,7 @@ def value(minimal, encoder):
 
 
 def test_value_honours_the_protocol(minimal, value):
-    states = list(dict.fromkeys(random_walk_states(minimal, 60, 1)))[:12]
+    states = list(dict.fromkeys(minimal.random_walk_states(60, 1)))[:12]
     assert isinstance(value, Value) and value.gamma == 1.0
     calls = value.forward_calls
     c = value.c_ap(states)
@@ -114,7 +113,7 @@ def test_value_honours_the_protocol(minimal, value):
 def test_value_in_chunks_is_the_value_in_one_pass(minimal, value, monkeypatch):
     import learning.gnn_value as gv
 
-    states = list(dict.fromkeys(random_walk_states(minimal, 80, 4)))[:13]
+    states = list(dict.fromkeys(minimal.random_walk_states(80, 4)))[:13]
     value._cache.clear()
     whole = value.c_ap(states)
     value._cache.clear()
@@ -128,7 +127,7 @@ def test_value_with_a_full_cache_still_answers_every_state(minimal, encoder):
     torch.manual_seed(1)
     net = GNNCostModel(encoder.num_features).eval()
     small = GNNValue((net, {"feature_names": encoder.feature_names}), minimal, encoder=encoder, cache_size=6)
-    states = list(dict.fromkeys(random_walk_states(minimal, 80, 5)))[:10]
+    states = list(dict.fromkeys(minimal.random_walk_states(80, 5)))[:10]
     first = small.c_ap(states[:4])
     both = small.c_ap(states[:4] + states[4:8])                 # 4 cached + 4 new > 6
     assert np.allclose(both[:4], first) and len(small._cache) <= 8
@@ -145,7 +144,7 @@ def test_inference_forward_is_the_modules(minimal, encoder, edge_dim):
         norm.running_mean.uniform_(-1, 1)
         norm.running_var.uniform_(0.5, 2)
     net.eval()
-    states = list(dict.fromkeys(random_walk_states(minimal, 60, 2)))[:9]
+    states = list(dict.fromkeys(minimal.random_walk_states(60, 2)))[:9]
     x, index, attr, batch = collate([encoder.arrays(s) for s in states])
     with torch.no_grad():
         want = net(x, index, batch, attr, num_graphs=len(states))

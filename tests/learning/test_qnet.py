@@ -10,7 +10,6 @@ from learning.qnet import (COMPLETE, CONTINUE, TERMINAL, BoundaryCache, build_ne
                            network_payload,
                            save_checkpoint, td_targets)
 from planning.errors import DomainError
-from tests.conftest import random_walk_states
 
 
 @pytest.fixture(scope="module")
@@ -53,7 +52,7 @@ def reference_q(net, enc, state: int, task: int) -> dict:
 
 
 def test_mask_centring_and_exact_argmax(two_room, enc, net):
-    states = random_walk_states(two_room, 12, seed=3)
+    states = two_room.random_walk_states(12, seed=3)
     rng = np.random.default_rng(0)
     for s in states:
         task = int(rng.integers(len(two_room.tasks)))
@@ -75,7 +74,7 @@ def test_mask_centring_and_exact_argmax(two_room, enc, net):
 
 def test_centring_removes_any_per_head_offset(two_room, enc, net):
     """Advantages are centred over the mask-valid values: shifting a head's outputs leaves every Q unchanged."""
-    states = random_walk_states(two_room, 16, seed=5)
+    states = two_room.random_walk_states(16, seed=5)
     packed = enc.pack(states)
     tasks = np.arange(16) % len(two_room.tasks)
     obs = torch.from_numpy(enc.observe(packed, tasks))
@@ -123,7 +122,7 @@ def test_targets_on_hand_made_transitions(two_room, enc):
     T = len(two_room.tasks)
     online = TableNet(enc, np.zeros(T), slope=1.0)          # picks the highest-index valid action
     target = TableNet(enc, np.arange(T) * 10.0, slope=-1.0)  # values it differently
-    s = random_walk_states(two_room, 1, seed=7)[0]
+    s = two_room.random_walk_states(1, seed=7)[0]
     packed = enc.pack([s])
     gamma, task = 0.9, 2
     batch = {"next_states": np.repeat(packed, 3, axis=0), "tasks": np.array([task, task, task]),
@@ -150,7 +149,7 @@ def test_targets_on_hand_made_transitions(two_room, enc):
 def test_checkpoint_round_trip_and_bad_files(two_room, three_room, enc, net, tmp_path):
     path = save_checkpoint(tmp_path / "q.pt", network_payload(net, enc))
     vf = load_value_function(path, two_room)
-    states = random_walk_states(two_room, 8, seed=11)
+    states = two_room.random_walk_states(8, seed=11)
     with torch.no_grad():
         packed = enc.pack(states)
         tasks = np.zeros(8, dtype=np.int64)
@@ -172,7 +171,7 @@ def test_brute_force_argmax_over_all_label_tuples(minimal):
     enc = Encoding(minimal)
     torch.manual_seed(1)
     net = build_network(enc).eval()
-    for s in random_walk_states(minimal, 6, seed=2):
+    for s in minimal.random_walk_states(6, seed=2):
         for task in range(len(minimal.tasks)):
             valid = enc.valid_for(enc.pack([s]), [task])[0]
             valid_tuples = {tuple(enc.labels[a]): a for a in np.flatnonzero(valid)}
@@ -188,7 +187,7 @@ def test_brute_force_argmax_over_all_label_tuples(minimal):
 def test_numpy_inference_matches_the_network(two_room, enc, net):
     from learning.qnet import NumpyQ, preparedness
 
-    states = random_walk_states(two_room, 24, seed=13)
+    states = two_room.random_walk_states(24, seed=13)
     packed = enc.pack(states)
     tasks = np.arange(24) % len(two_room.tasks)
     obs, valid = enc.observe(packed, tasks), enc.valid_for(packed, tasks)
@@ -214,7 +213,7 @@ def test_boundary_cache_is_exact_and_spares_the_target_net(two_room, enc):
     T = len(two_room.tasks)
     online = TableNet(enc, np.zeros(T), slope=1.0)
     target = CountingNet(enc, np.arange(T) * 10.0, slope=-1.0)
-    states = enc.pack(random_walk_states(two_room, 3, seed=11))
+    states = enc.pack(two_room.random_walk_states(3, seed=11))
     batch = {"next_states": np.concatenate([states, states[:1]]), "tasks": np.array([1, 2, 3, 4]),
              "rewards": np.array([-1.0, 50.0, 60.0, 50.0], dtype=np.float32),
              "kinds": np.array([CONTINUE, COMPLETE, COMPLETE, COMPLETE], dtype=np.int8)}
@@ -261,7 +260,7 @@ def test_batched_q_max_and_v_ap_match_the_torch_forward(layout, weights, request
             pytest.skip(f"no {ckpt}")
         net = load_value_function(ckpt, model).net
     vf = ValueFunction(net, enc)
-    states = random_walk_states(model, 50, seed=21)
+    states = model.random_walk_states(50, seed=21)
     packed = enc.pack(states)
     # the tests of the fast path are exact: applicable actions and satisfied goals, as the encoding's
     b = vf.batched
@@ -376,7 +375,7 @@ def trained_like(enc, seed):
 def fixed_minibatch(model, enc, n, seed):
     """n transitions of random walks: every kind, repeated completion states, tasks that hold."""
     rng = np.random.default_rng(seed)
-    states = enc.pack(random_walk_states(model, n + 1, seed=seed))
+    states = enc.pack(model.random_walk_states(n + 1, seed=seed))
     nxt = states[1:].copy()
     nxt[n // 2:n // 2 + 6] = nxt[n // 2]                            # one completion state six times
     kinds = rng.choice([CONTINUE, COMPLETE, TERMINAL], size=n, p=[0.7, 0.2, 0.1]).astype(np.int8)
@@ -421,7 +420,7 @@ def test_dense_heads_give_the_reference_q_and_gradients(restaurant):
 
 def test_split_first_layer_gives_the_same_q(two_room, enc):
     net = trained_like(enc, 1)
-    states = enc.pack(random_walk_states(two_room, 12, seed=4))
+    states = enc.pack(two_room.random_walk_states(12, seed=4))
     tasks = np.tile(enc.support, 12)
     rows = np.repeat(np.arange(12), len(enc.support))
     valid = torch.from_numpy(enc.valid_for(states[rows], tasks))
@@ -474,7 +473,7 @@ def test_committed_checkpoints_act_as_before(path):
     layout = "three-room" if "three-room" in path else "two-room"
     model = compile_domain("domains/restaurant", layout)
     vf = load_value_function(path, model)
-    states = random_walk_states(model, 50, seed=17)
+    states = model.random_walk_states(50, seed=17)
     packed = vf.enc.pack(states)
     tasks = np.random.default_rng(0).integers(len(model.tasks), size=50)
     obs, valid = torch.from_numpy(vf.enc.observe(packed, tasks)), torch.from_numpy(vf.enc.valid_for(packed, tasks))
@@ -497,7 +496,7 @@ def test_live_greedy_acts_as_the_forward_and_follows_the_weights(restaurant):
     enc = Encoding(restaurant)
     net = trained_like(enc, 4)
     greedy = LiveGreedy(net)
-    states = random_walk_states(restaurant, 120, seed=8)
+    states = restaurant.random_walk_states(120, seed=8)
     tasks = np.random.default_rng(1).integers(len(restaurant.tasks), size=120)
     obs = enc.observe(enc.pack(states), tasks)
     valid = np.zeros((120, enc.n_actions), dtype=bool)
@@ -554,7 +553,7 @@ def test_empty_batches_and_no_row_to_value(two_room, enc):
     from learning.qnet import SlotCache
     from learning.replay import Replay, mixed_batch
     net = trained_like(enc, 9)
-    valid = torch.from_numpy(enc.valid_for(enc.pack(random_walk_states(two_room, 1, seed=2)), [0]))[:0]
+    valid = torch.from_numpy(enc.valid_for(enc.pack(two_room.random_walk_states(1, seed=2)), [0]))[:0]
     assert net(torch.zeros(0, enc.obs_dim), valid).shape == (0, enc.n_actions)
     memory = Replay(20, enc.n_words)
     b = fixed_minibatch(two_room, enc, 20, seed=13)
@@ -582,7 +581,7 @@ def test_compact_checkpoint_acts_as_the_full_one(three_room, tmp_path):
     assert payload["precision"] == "float16" and all(v.dtype != torch.float16 for v in payload["net"].values())
     a, b = load_value_function(full, three_room), load_value_function(small, three_room)
     assert not torch.equal(a.net.encoder[0].weight, b.net.encoder[0].weight)   # float16 rounding did happen
-    states = random_walk_states(three_room, 300, seed=5)
+    states = three_room.random_walk_states(300, seed=5)
     tasks = np.random.default_rng(1).integers(len(three_room.tasks), size=len(states))
     greedy = lambda vf: [int(vf.greedy([s], int(t))[0]) for s, t in zip(states, tasks)]
     assert greedy(a) == greedy(b)

@@ -5,7 +5,6 @@ import sys
 
 import pytest
 
-from tests.conftest import random_walk_states
 from oracles.labelling import Labeller, read_state
 from planning.external import fast_downward as fd
 from planning.errors import DomainError
@@ -159,7 +158,7 @@ def test_costs_equal_fast_downward_full_sample(three_room):
 @pytest.mark.slow
 def test_heuristics_agree_on_the_restaurant(two_room):
     """Dijkstra (blind), h_max and LM-cut settle the same costs on reachable restaurant states."""
-    for s in random_walk_states(two_room, 2, seed=21, walk=10):
+    for s in two_room.random_walk_states(2, seed=21, walk=10):
         costs = [Labeller(two_room, h).label(s).costs for h in ("blind", "hmax", "lmcut", "pdb")]
         assert all((c == costs[0]).all() for c in costs)
 
@@ -168,7 +167,7 @@ def test_heuristics_agree_on_the_restaurant(two_room):
 def test_costs_equal_single_task_plans_on_random_states(two_room):
     """On states of random walks (machine water often used up), settled costs are single-task optima."""
     lab = Labeller(two_room, "lmcut")
-    for state in random_walk_states(two_room, 3, seed=5, walk=30)[::1]:
+    for state in two_room.random_walk_states(3, seed=5, walk=30)[::1]:
         label = lab.label(state)
         for task, c in zip(two_room.tasks, label.costs):
             assert c == optimal_plan(lab.bm, state, task).cost, task.name
@@ -177,7 +176,7 @@ def test_costs_equal_single_task_plans_on_random_states(two_room):
 def test_cache_and_tie_breaking_change_no_cost(two_room):
     """The memoized LM-cut and deepest-first ties settle the same costs as the plain search;
     labelling neighbouring states one after another reuses heuristic values."""
-    states = random_walk_states(two_room, 3, seed=8, walk=6)
+    states = two_room.random_walk_states(3, seed=8, walk=6)
     plain = Labeller(two_room, "lmcut", cache=False)
     cached = Labeller(two_room, "lmcut")
     deep = Labeller(two_room, "lmcut", deepest_first=True)

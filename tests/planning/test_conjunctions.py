@@ -1,7 +1,6 @@
 """LM-cut on P^C (planning.heuristics.lmcut_pc): mutexes, the pantry round trip, and labels equal to plain LM-cut's."""
 import numpy as np
 
-from tests.conftest import random_walk_states
 from planning.heuristics.lmcut_pc import ConjunctionLMCut, MutexPairs, agent_pairs
 from oracles.labelling import Labeller
 from planning.domain.batched import BatchedModel
@@ -21,7 +20,7 @@ def test_mutexes_of_the_restaurant(three_room):
     assert m.matrix[at("holding", "jar_0"), at("at", "jar_0", "pantry")]              # held: at no location
     assert not m.matrix[at("robot-at", "pantry"), at("holding", "jar_0")]
     assert not m.matrix[at("dirty", "cup_0"), at("dirty", "cup_1")]
-    for s in random_walk_states(three_room, 40, seed=2, walk=20):
+    for s in three_room.random_walk_states(40, seed=2, walk=20):
         assert m.respects(s)
     both = three_room.init | 1 << at("robot-at", "pantry")          # two places at once
     assert not m.respects(both)
@@ -44,7 +43,7 @@ def test_labels_equal_plain_lmcut(two_room, three_room):
         plain, pc = Labeller(model, "lmcut"), Labeller(model, "lmcut-pc")
         assert pc.heuristic == "lmcut-pc" and pc.fallback is not None
         closed = np.zeros(2, dtype=int)
-        for s in random_walk_states(model, 3, seed=seed, walk=12):
+        for s in model.random_walk_states(3, seed=seed, walk=12):
             a, b = plain.label(s), pc.label(s)
             assert np.array_equal(a.costs, b.costs)
             closed += a.closed, b.closed

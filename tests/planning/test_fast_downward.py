@@ -5,14 +5,13 @@ import pytest
 from planning.external import fast_downward as fd
 from planning.domain.batched import BatchedModel
 from planning.search.optimal import optimal_plan
-from tests.conftest import random_walk_states
 from tests.examples import SERVE_WATER_ACTIONS, START_COSTS
 
 
 def state_task_pairs(model, n: int, seed: int):
     """n (reachable state, task) pairs: states from random walks, tasks drawn from P."""
     rng = np.random.default_rng(seed)
-    states = random_walk_states(model, 20 * n, seed)
+    states = model.random_walk_states(20 * n, seed)
     return [(states[i], model.tasks.sample(rng)) for i in rng.choice(len(states), n, replace=False)]
 
 

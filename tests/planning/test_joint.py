@@ -243,12 +243,11 @@ def test_layered_relaxation_sees_the_second_water(two_room, joint):
 
 def test_layered_values_agree_between_native_and_numpy(two_room, joint, monkeypatch):
     import planning.heuristics.lmcut as lmcut_module
-    from tests.conftest import random_walk_states
 
     if lmcut_module.native() is None:
         pytest.skip("no C compiler")
     water, coffee = two_room.tasks.get("serve-water(servingtable)"), two_room.tasks.get("make-coffee(servingtable)")
-    states = random_walk_states(two_room, 150, seed=4)
+    states = two_room.random_walk_states(150, seed=4)
     for window, stage in [([water, water], 0), ([water, coffee, water], 1)]:
         batch = joint.bm.pack([s | (1 << (joint.n + stage)) for s in states])
         relaxed = joint.relaxation(window, stage)

@@ -12,7 +12,6 @@ import planning.heuristics.lmcut as lmcut_module
 from planning.heuristics.lmcut import LMCut
 from planning.domain.model import Op
 from planning.search.optimal import optimal_plan, uniform_cost_search
-from tests.conftest import random_walk_states
 
 
 class _Bits:
@@ -91,7 +90,7 @@ def test_between_hmax_and_the_optimal_cost(two_room):
     bm = BatchedModel(two_room)
     hm = HMax(two_room, bm)
     lm = LMCut(two_room, bm, hm)
-    states = random_walk_states(two_room, 300, seed=5)
+    states = two_room.random_walk_states(300, seed=5)
     batch = bm.pack(states)
     stronger = 0
     for name in ["make-coffee(servingtable)", "serve-water(servingtable)", "wash(bowls)", "fruit-bowl(servingtable)"]:
@@ -129,7 +128,7 @@ def test_native_and_numpy_agree_exactly(two_room, monkeypatch, implementation):
         pytest.skip("compares both implementations itself: runs once, under the native parameter")
     bm = BatchedModel(two_room)
     lm = LMCut(two_room, bm)
-    batch = bm.pack(random_walk_states(two_room, 200, seed=9))
+    batch = bm.pack(two_room.random_walk_states(200, seed=9))
     for name in ["serve-water(servingtable)", "make-coffee(servingtable)", "fruit-bowl(servingtable)"]:
         goal = goal_literals(two_room, two_room.tasks.get(name))
         fast = lm(batch, goal)
@@ -165,7 +164,7 @@ def test_landmarks_are_cuts_every_plan_crosses(two_room, implementation):
         pytest.skip("landmarks come from the compiled LM-cut")
     bm = BatchedModel(two_room)
     lm = LMCut(two_room, bm)
-    states = random_walk_states(two_room, 40, seed=7)
+    states = two_room.random_walk_states(40, seed=7)
     checked = 0
     for name in ["serve-water(servingtable)", "make-coffee(servingtable)", "wash(knives)"]:
         task = two_room.tasks.get(name)

@@ -1,7 +1,6 @@
 """Pattern databases (planning.heuristics.pdb): admissible everywhere, exact where delete relaxations are blind."""
 import numpy as np
 
-from tests.conftest import random_walk_states
 from oracles.labelling import Labeller
 from planning.heuristics.hmax import goal_literals
 from planning.heuristics.lmcut import LMCut
@@ -47,7 +46,7 @@ def test_admissible_and_labels_unchanged_on_reachable_states(two_room):
     """On random-walk states every estimate is at most the optimal cost, and the labels are LM-cut's."""
     pdb_lab, lmcut_lab = Labeller(two_room, "pdb"), Labeller(two_room, "lmcut")
     assert pdb_lab.heuristic == "pdb"
-    for s in random_walk_states(two_room, 6, seed=3, walk=25):
+    for s in two_room.random_walk_states(6, seed=3, walk=25):
         exact = lmcut_lab.label(s).costs
         assert (pdb_lab.label(s).costs == exact).all()
         assert (pdb_lab.search.h.per_task(pdb_lab.bm.pack([s]))[0] <= exact).all()

@@ -6,7 +6,6 @@ from planning.domain.batched import BatchedModel
 from planning.external.fast_downward import replay_cost
 from planning.heuristics.hmax import HMax, goal_literals
 from planning.search.optimal import optimal_plan, optimal_plans, uniform_cost_search
-from tests.conftest import random_walk_states
 from tests.examples import START_COSTS
 
 
@@ -20,7 +19,7 @@ def test_hand_checked_costs_from_the_start_state(restaurant, name, cost):
 def test_astar_equals_uniform_cost_search(two_room):
     bm = BatchedModel(two_room)
     rng = np.random.default_rng(3)
-    states = random_walk_states(two_room, 400, seed=3)
+    states = two_room.random_walk_states(400, seed=3)
     cheap = [t for t in two_room.tasks if t.type in ("make-coffee", "clear", "wash", "pick-place")]
     for i in rng.choice(len(states), 12, replace=False):
         task = cheap[rng.integers(len(cheap))]

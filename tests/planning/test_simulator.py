@@ -5,7 +5,6 @@ import pytest
 from planning.domain.batched import BatchedModel
 from planning.errors import DomainError
 from planning.domain.factored import factored_actions
-from tests.conftest import random_walk_states
 
 
 def test_initial_successors(two_room):
@@ -23,7 +22,7 @@ def test_initial_successors(two_room):
 def test_batched_step_equals_single_step(restaurant):
     m = restaurant
     bm = BatchedModel(m)
-    states = random_walk_states(m, 600, seed=1)
+    states = m.random_walk_states(600, seed=1)
     batch = bm.pack(states)
     assert bm.unpack(batch) == states
     parent, action, nxt, cost = bm.successors(batch)
@@ -41,7 +40,7 @@ def test_batched_step_equals_single_step(restaurant):
 
 def test_bits_view(two_room):
     bm = BatchedModel(two_room)
-    states = random_walk_states(two_room, 50, seed=2)
+    states = two_room.random_walk_states(50, seed=2)
     bits = bm.to_bits(bm.pack(states))
     assert bits.shape == (50, two_room.n_atoms)
     for row, s in zip(bits, states):
@@ -72,7 +71,7 @@ def test_unknown_atom_is_an_error(two_room):
 
 
 def test_states_are_compact_and_hashable(three_room):
-    states = random_walk_states(three_room, 200, seed=4)
+    states = three_room.random_walk_states(200, seed=4)
     assert all(isinstance(s, int) and s.bit_length() <= three_room.n_atoms for s in states)
     assert len({s: None for s in states}) == len(set(states))
 
@@ -91,6 +90,6 @@ def test_disjunctive_precondition_gives_one_ground_action(two_room):
 
 def test_factored_labels_are_unique_among_applicable_actions(restaurant):
     f = factored_actions(restaurant)
-    for s in random_walk_states(restaurant, 500, seed=5):
+    for s in restaurant.random_walk_states(500, seed=5):
         labels = f.applicable_labels(restaurant, s)
         assert sorted(labels.values()) == restaurant.applicable(s)
