@@ -107,21 +107,29 @@ def update_profile(trainer: Trainer, n: int) -> dict:
     return out
 
 
-def matmul_profile(trainer: Trainer, batches: list) -> dict:
+def matmul_profile(trainer: Trainer, batches: list, chunk: int = 50) -> dict:
     """The matrix products' CPU time per update, their share of the update's (both as torch's profiler
-    counts them, self time per operation) and their rate, over the given minibatches."""
+    counts them, self time per operation) and their rate, over the given minibatches.
+
+    The profiler keeps every operation's record with its shapes, about 9 MB an update here, so the
+    updates are profiled `chunk` at a time and only the sums are kept (1,000 updates at once held
+    about 9 GB)."""
     from torch.profiler import ProfilerActivity, profile
-    with profile(activities=[ProfilerActivity.CPU], with_flops=True) as prof:
-        for i, b in enumerate(batches):
-            if i % trainer.cfg.target_every == 0:
-                trainer.boundary.clear()
-            trainer.update(b)
-    ops = prof.key_averages()
-    total = sum(e.self_cpu_time_total for e in ops)                    # microseconds
-    mm = [e for e in ops if e.key in MATMUL_OPS]
-    t = sum(e.self_cpu_time_total for e in mm)
+    total = t = flops = 0.0                                             # microseconds, FLOPs
+    for lo in range(0, len(batches), chunk):
+        with profile(activities=[ProfilerActivity.CPU], with_flops=True) as prof:
+            for i in range(lo, min(lo + chunk, len(batches))):
+                if i % trainer.cfg.target_every == 0:
+                    trainer.boundary.clear()
+                trainer.update(batches[i])
+        ops = prof.key_averages()
+        total += sum(e.self_cpu_time_total for e in ops)
+        mm = [e for e in ops if e.key in MATMUL_OPS]
+        t += sum(e.self_cpu_time_total for e in mm)
+        flops += sum(e.flops for e in mm)
+        del prof, ops, mm
     return {"matmul_ms": round(t / 1000 / len(batches), 2), "matmul_share": round(t / total, 3) if total else 0.0,
-            "matmul_gflops": round(sum(e.flops for e in mm) / t / 1e3, 1) if t else 0.0}
+            "matmul_gflops": round(flops / t / 1e3, 1) if t else 0.0}
 
 
 def bench_horizon(model_dir: str, layout: str, horizon: str, steps: int, updates: int, seed: int) -> dict:
