@@ -131,8 +131,19 @@ A5_ROWS = ("myopic-oracle", *AGENTS, "clairvoyant-3")
 A6_ROWS = ("myopic-oracle", "myopic-rl-guided", "gnn-augmented", "anticipatory-rl-guided")
 
 
-def figures(results: dict, folder: Path) -> dict[str, tuple[Path | None, str]]:
-    """{figure: (PNG or None, what it needs when None)} — every figure of the report."""
+def from_logs(draw, path: Path, logs: list[str]) -> tuple[Path | None, int]:
+    """A figure drawn from training logs, which runs/ holds and git does not: where this checkout lacks some
+    of the logs behind it and the committed PNG exists, that PNG is kept as it was drawn (a fresh checkout
+    would otherwise redraw it from fewer runs, or drop it). Returns (PNG or None, logs missing here)."""
+    missing = sum(not Path(p).is_file() for p in logs)
+    if missing and path.is_file():
+        return path, missing
+    return draw(path), 0
+
+
+def figures(results: dict, folder: Path) -> tuple[dict[str, tuple[Path | None, str]], dict[str, int]]:
+    """{figure: (PNG or None, what it needs when None)}, every figure of the report, and {figure: training logs
+    missing here} for those kept as committed (`from_logs`)."""
     from experiments.report_data import improvement
 
     f53 = {layout: {(h, d): (rows[f"{h}-rl-{d}"].figures() or {}).get("cost_seeds", [])
@@ -151,12 +162,18 @@ def figures(results: dict, folder: Path) -> dict[str, tuple[Path | None, str]]:
                     for k in A6_ROWS if rows[k].used} for layout, rows in results.items()}
     logs = {layout: {h: [rows_ for _, p in training_logs(layout, h) if (rows_ := [r for r in read_jsonl(p) if "step" in r])]
                      for h in ("myopic", "anticipatory")} for layout in results}
-    a2 = {}
+    a1_logs = [p for layout in results for h in ("myopic", "anticipatory") for _, p in training_logs(layout, h)]
+    a2, a2_logs = {}, []
     if "three-room" in results:
+        a2_logs = [f"{rl_run_dir(h, 'three-room', 0)}/metrics.jsonl" for h in ("anticipatory", "myopic")
+                   if Path(f"results/training-{h}-three-room-seed0.json").is_file()]
         a2 = {f"anticipatory, γ = {g:g}": [r for r in read_jsonl(p) if "step" in r] for g, p, _ in discount_runs()}
         a2["anticipatory, γ = 0.97 (main run)"] = [r for r in read_jsonl(f"{rl_run_dir('anticipatory', 'three-room', 0)}/metrics.jsonl") if "step" in r]
         a2["myopic"] = [r for r in read_jsonl(f"{rl_run_dir('myopic', 'three-room', 0)}/metrics.jsonl") if "step" in r]
     minimal = report_reference.read("results/minimal-example.json") or {}
+    a1, a1_missing = from_logs(lambda path: figs.training_curves(logs, path), folder / "fig-A-1-training.png", a1_logs)
+    a2_png, a2_missing = from_logs(lambda path: figs.refill_share(a2, path), folder / "fig-A-2-refill-water.png", a2_logs)
+    kept = {name: n for name, n in (("A.1", a1_missing), ("A.2", a2_missing)) if n}
     need_logs = "training logs `runs/dqn/restaurant-<layout>-<horizon>-seed<N>/metrics.jsonl` (`python -m learning.dqn ...`; runs/ is not committed)"
     return {
         "5.1b": (figs.minimal_example({h: minimal[h] for h in ("myopic", "anticipatory") if h in minimal},
@@ -165,14 +182,13 @@ def figures(results: dict, folder: Path) -> dict[str, tuple[Path | None, str]]:
         "5.3": (figs.greedy_vs_guided(f53, th53, folder / "fig-5-3-greedy-vs-guided.png"),
                 "the greedy and guided results files of Table A.4"),
         "5.4": (figs.improvement_bars(f54, folder / "fig-5-4-improvement.png"), "Table 5.2's results files"),
-        "A.1": (figs.training_curves(logs, folder / "fig-A-1-training.png"), need_logs),
-        "A.2": (figs.refill_share(a2, folder / "fig-A-2-refill-water.png"),
-                "three-room training logs (seed 0, the Table A.5 discounts: `--discount-sweep`)"),
+        "A.1": (a1, need_logs),
+        "A.2": (a2_png, "three-room training logs (seed 0, the Table A.5 discounts: `--discount-sweep`)"),
         "A.4": (figs.sequence_distributions(fa4, folder / "fig-A-4-sequence-costs.png"), "Table 5.2's results files"),
         "A.5": (figs.cumulative_cost(fa5, FIGURE_A5_SEQUENCE, folder / "fig-A-5-cumulative-cost.png"),
                 "Table 5.2's results files"),
         "A.6": (figs.cost_by_task_type(fa6, folder / "fig-A-6-task-types.png"), "the guided agents' results files"),
-    }
+    }, kept
 
 
 FIGURE_TEXT = {
@@ -261,7 +277,7 @@ def report(layouts, ctx: Context, out: Path, command: str) -> str:
     started = time.perf_counter()
     results = {layout: load_rows(row_specs(layout), ctx) for layout in layouts}
     folder = out.parent / "figures"
-    drawn = figures(results, folder)
+    drawn, kept = figures(results, folder)
     for old in folder.glob("fig-*.png"):          # a figure that can no longer be drawn is not left behind
         if old not in {path for path, _ in drawn.values()}:
             old.unlink()
@@ -335,6 +351,9 @@ def report(layouts, ctx: Context, out: Path, command: str) -> str:
             lines += [f"**Figure {name}**: not run (needs {needs}).", ""]
         else:
             lines += [f"![Figure {name}](figures/{path.name})", "", FIGURE_TEXT[name], ""]
+            if name in kept:
+                lines += [f"Kept as committed: drawn in a checkout that had its training logs; this one lacks "
+                          f"{kept[name]} of them (`runs/` is not committed), so it was not redrawn.", ""]
     lines += ["## Table A.5: the discount sweep (optional)", "", *discount_table(), ""]
     ckpts = [rl_checkpoint(h, layout, s) for layout in layouts for h in ("myopic", "anticipatory") for s in range(5)]
     for title, body in report_reference.everything(layouts, ckpts, sha256).items():

@@ -194,6 +194,27 @@ def test_training_curves_leave_out_runs_in_progress(tmp_path, monkeypatch):
     assert training_logs("two-room", "anticipatory") == []
 
 
+def test_a_figure_from_training_logs_is_kept_where_the_logs_are_not(tmp_path):
+    """runs/ is not committed: a fresh checkout lacking some of a figure's logs keeps the committed PNG rather
+    than redrawing it from fewer runs; with every log here, or no PNG yet, it is drawn."""
+    from experiments.reproduce import from_logs
+
+    png, log = tmp_path / "fig.png", tmp_path / "metrics.jsonl"
+    drawn = []
+
+    def draw(path):
+        drawn.append(path)
+        path.write_bytes(b"new")
+        return path
+
+    assert from_logs(draw, png, [str(log)]) == (png, 0) and png.read_bytes() == b"new"    # no PNG yet: drawn
+    png.write_bytes(b"committed")
+    assert from_logs(draw, png, [str(log), str(tmp_path / "other.jsonl")]) == (png, 2)
+    assert png.read_bytes() == b"committed" and len(drawn) == 1                           # kept, not redrawn
+    log.write_text("{}")
+    assert from_logs(draw, png, [str(log)]) == (png, 0) and png.read_bytes() == b"new"    # every log here
+
+
 def test_a_bound_run_is_reported_beside_its_twin(tmp_path, monkeypatch):
     """The target-bound table pairs each bound run with the thesis-target run of its layout, horizon and seed,
     and says 'not run' for an evaluation not made."""
