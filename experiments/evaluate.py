@@ -52,7 +52,8 @@ def main() -> None:
 
     def over_workers(out, log):             # each sequence a work item; the run below merges their rows
         if args.workers > 1 or args.ray:
-            play_over_workers([Job(known.agent, args, model, agent, ids, out, args.force, log)], args.workers, args.ray)
+            play_over_workers([Job(known.agent, args, model, agent, ids, out, args.force, log)], args.workers, args.ray,
+                              progress=not args.no_progress)
 
     r, out = play(model, agent, ids, args, before=over_workers)
     print(f"{r['agent']} {r['layout']}: cost per task {r['cost_per_task']}, actions per task "

@@ -20,9 +20,10 @@ def reference_path(model) -> str:
 
 
 def run_options(p) -> None:
-    """--force and --strict, the options of every evaluation."""
+    """--force, --strict and --no-progress, the options of every evaluation."""
     p.add_argument("--force", action="store_true", help="replace a finished results file made otherwise")
     p.add_argument("--strict", action="store_true", help="exit non-zero if any planner timed out or crashed")
+    p.add_argument("--no-progress", action="store_true", help="no progress bars (logs of background runs)")
 
 
 def play(model, agent, ids, args, before=None) -> tuple[dict, str]:
@@ -36,4 +37,4 @@ def play(model, agent, ids, args, before=None) -> tuple[dict, str]:
     if before is not None:
         before(out, log)
     return evaluate(model, agent, ids, out, reference=reference_path(model), force=args.force,
-                    strict=args.strict), out
+                    strict=args.strict, progress=not args.no_progress), out

@@ -259,6 +259,29 @@ def run_killed_and_resumed(cmd, watch, kills=2, cwd=None):
     return subprocess.run([sys.executable, *cmd], cwd=cwd, capture_output=True).returncode
 
 
+def test_no_progress_leaves_the_log_without_bars(tmp_path):
+    """--no-progress (every evaluation command has it, for background runs): no progress bar on stderr; without
+    it the bar is there."""
+    import shutil
+    import subprocess
+    import sys
+
+    domain = tmp_path / "restaurant"
+    shutil.copytree("domains/restaurant", domain)
+    for path in (domain / "sequences" / "two-room").glob("seq-*.json"):
+        rec = json.loads(path.read_text())
+        path.write_text(json.dumps({**rec, "tasks": rec["tasks"][:3]}))
+    cmd = lambda out, *extra: [sys.executable, "-m", "experiments.evaluate", "--agent", "myopic-oracle", "--planner",
+                               "internal", "--domain", str(domain), "--layout", "two-room", "--sequences", "0",
+                               "--out", str(tmp_path / out), *extra]
+    quiet = subprocess.run(cmd("quiet.json", "--no-progress"), capture_output=True, text=True)
+    loud = subprocess.run(cmd("loud.json"), capture_output=True, text=True)
+    assert quiet.returncode == loud.returncode == 0
+    assert "task/s" not in quiet.stderr and "task/s" in loud.stderr
+    assert json.loads((tmp_path / "quiet.json").read_text())["cost_per_task"] == \
+        json.loads((tmp_path / "loud.json").read_text())["cost_per_task"]
+
+
 def test_a_run_killed_and_rerun_gives_the_uninterrupted_results(tmp_path):
     """SIGKILL mid-run (twice), rerun: the results are those of one uninterrupted run (timings aside).
     Ten sequences, so that a killed run has several left after the piece that triggered its kill."""
