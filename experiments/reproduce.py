@@ -160,16 +160,18 @@ def figures(results: dict, folder: Path) -> tuple[dict[str, tuple[Path | None, s
                     for k in A5_ROWS] for layout, rows in results.items()}
     fa6 = {layout: {rows[k].row.label + ("" if len(rows[k].used) > 1 else " (SE over tasks: 1 seed)"): by_task_type(rows[k])
                     for k in A6_ROWS if rows[k].used} for layout, rows in results.items()}
-    logs = {layout: {h: [rows_ for _, p in training_logs(layout, h) if (rows_ := [r for r in read_jsonl(p) if "step" in r])]
-                     for h in ("myopic", "anticipatory")} for layout in results}
-    a1_logs = [p for layout in results for h in ("myopic", "anticipatory") for _, p in training_logs(layout, h)]
+    steps = lambda path: [r for r in read_jsonl(path) if "step" in r]
+    runs = {layout: {h: [p for _, p in training_logs(layout, h)] for h in ("myopic", "anticipatory")} for layout in results}
+    logs = {layout: {h: [rows_ for p in paths if (rows_ := steps(p))] for h, paths in per.items()}
+            for layout, per in runs.items()}
+    a1_logs = [p for per in runs.values() for paths in per.values() for p in paths]
     a2, a2_logs = {}, []
     if "three-room" in results:
-        a2_logs = [f"{rl_run_dir(h, 'three-room', 0)}/metrics.jsonl" for h in ("anticipatory", "myopic")
-                   if Path(f"results/training-{h}-three-room-seed0.json").is_file()]
-        a2 = {f"anticipatory, γ = {g:g}": [r for r in read_jsonl(p) if "step" in r] for g, p, _ in discount_runs()}
-        a2["anticipatory, γ = 0.97 (main run)"] = [r for r in read_jsonl(f"{rl_run_dir('anticipatory', 'three-room', 0)}/metrics.jsonl") if "step" in r]
-        a2["myopic"] = [r for r in read_jsonl(f"{rl_run_dir('myopic', 'three-room', 0)}/metrics.jsonl") if "step" in r]
+        seed0 = {h: f"{rl_run_dir(h, 'three-room', 0)}/metrics.jsonl" for h in ("anticipatory", "myopic")}
+        a2_logs = [p for h, p in seed0.items() if Path(f"results/training-{h}-three-room-seed0.json").is_file()]
+        a2 = {f"anticipatory, γ = {g:g}": steps(p) for g, p, _ in discount_runs()}
+        a2["anticipatory, γ = 0.97 (main run)"] = steps(seed0["anticipatory"])
+        a2["myopic"] = steps(seed0["myopic"])
     minimal = report_reference.read("results/minimal-example.json") or {}
     a1, a1_missing = from_logs(lambda path: figs.training_curves(logs, path), folder / "fig-A-1-training.png", a1_logs)
     a2_png, a2_missing = from_logs(lambda path: figs.refill_share(a2, path), folder / "fig-A-2-refill-water.png", a2_logs)
