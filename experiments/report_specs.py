@@ -14,6 +14,7 @@ restaurant and 5 on the three-room (Appendix A.2), GNN seeds 0, 4, 8 and 16
 """
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -210,10 +211,17 @@ COMPARISONS = (("anticipatory-rl-guided", "gnn-augmented"), ("anticipatory-rl-gu
 
 
 def training_logs(layout: str, horizon: str) -> list[tuple[int, str]]:
-    """(seed, metrics.jsonl) of the finished training runs behind a learned row (Figure A.1): those exported
-    (`learning.export` wrote results/training-<horizon>-<layout>-seed<N>.json), not runs still in progress."""
-    return [(s, f"{rl_run_dir(horizon, layout, s)}/metrics.jsonl") for s in RL_SEEDS[layout]
-            if Path(f"results/training-{horizon}-{layout}-seed{s}.json").is_file()]
+    """(seed, log) of the finished training runs behind a learned row (Figure A.1): those exported
+    (`learning.export` wrote results/training-<horizon>-<layout>-seed<N>.json), not runs still in progress.
+    The log is that results file where it keeps the run's curve, else the run's metrics.jsonl (runs exported
+    before curves were kept; runs/ is not committed)."""
+    out = []
+    for s in RL_SEEDS[layout]:
+        figures = Path(f"results/training-{horizon}-{layout}-seed{s}.json")
+        if figures.is_file():
+            out.append((s, str(figures) if "curve" in json.loads(figures.read_text())
+                        else f"{rl_run_dir(horizon, layout, s)}/metrics.jsonl"))
+    return out
 
 
 def discount_runs() -> list[tuple[float, str, str]]:

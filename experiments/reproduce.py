@@ -16,6 +16,7 @@ minute), it writes the report (default docs/results.md) and its figures
 """
 from __future__ import annotations
 
+import json
 import argparse
 import shlex
 import subprocess
@@ -91,7 +92,7 @@ def train_discount_sweep(progress: bool = True) -> None:
     from learning.dqn import Config
 
     for gamma, metrics, command in discount_runs():
-        rows = [r for r in read_jsonl(metrics) if "step" in r]
+        rows = curve(metrics)
         if rows and rows[-1]["step"] >= Config.steps:
             continue
         print(f"γ = {gamma:g}: {command}", file=sys.stderr)
@@ -141,6 +142,13 @@ def from_logs(draw, path: Path, logs: list[str]) -> tuple[Path | None, int]:
     return draw(path), 0
 
 
+def curve(log: str) -> list[dict]:
+    """A training run's logged rows: the curve its results file keeps (`learning.export`), or its metrics.jsonl."""
+    if log.endswith(".json"):
+        return json.loads(Path(log).read_text())["curve"]
+    return [r for r in read_jsonl(log) if "step" in r]
+
+
 def figures(results: dict, folder: Path) -> tuple[dict[str, tuple[Path | None, str]], dict[str, int]]:
     """{figure: (PNG or None, what it needs when None)}, every figure of the report, and {figure: training logs
     missing here} for those kept as committed (`from_logs`)."""
@@ -160,18 +168,17 @@ def figures(results: dict, folder: Path) -> tuple[dict[str, tuple[Path | None, s
                     for k in A5_ROWS] for layout, rows in results.items()}
     fa6 = {layout: {rows[k].row.label + ("" if len(rows[k].used) > 1 else " (SE over tasks: 1 seed)"): by_task_type(rows[k])
                     for k in A6_ROWS if rows[k].used} for layout, rows in results.items()}
-    steps = lambda path: [r for r in read_jsonl(path) if "step" in r]
     runs = {layout: {h: [p for _, p in training_logs(layout, h)] for h in ("myopic", "anticipatory")} for layout in results}
-    logs = {layout: {h: [rows_ for p in paths if (rows_ := steps(p))] for h, paths in per.items()}
+    logs = {layout: {h: [rows_ for p in paths if (rows_ := curve(p))] for h, paths in per.items()}
             for layout, per in runs.items()}
     a1_logs = [p for per in runs.values() for paths in per.values() for p in paths]
     a2, a2_logs = {}, []
     if "three-room" in results:
         seed0 = {h: f"{rl_run_dir(h, 'three-room', 0)}/metrics.jsonl" for h in ("anticipatory", "myopic")}
         a2_logs = [p for h, p in seed0.items() if Path(f"results/training-{h}-three-room-seed0.json").is_file()]
-        a2 = {f"anticipatory, γ = {g:g}": steps(p) for g, p, _ in discount_runs()}
-        a2["anticipatory, γ = 0.97 (main run)"] = steps(seed0["anticipatory"])
-        a2["myopic"] = steps(seed0["myopic"])
+        a2 = {f"anticipatory, γ = {g:g}": curve(p) for g, p, _ in discount_runs()}
+        a2["anticipatory, γ = 0.97 (main run)"] = curve(seed0["anticipatory"])
+        a2["myopic"] = curve(seed0["myopic"])
     minimal = report_reference.read("results/minimal-example.json") or {}
     a1, a1_missing = from_logs(lambda path: figs.training_curves(logs, path), folder / "fig-A-1-training.png", a1_logs)
     a2_png, a2_missing = from_logs(lambda path: figs.refill_share(a2, path), folder / "fig-A-2-refill-water.png", a2_logs)
@@ -251,7 +258,7 @@ def provenance_table(results: dict) -> list[str]:
 def discount_table() -> list[str]:
     body = []
     for gamma, metrics, command in discount_runs():
-        rows = [r for r in read_jsonl(metrics) if "step" in r]
+        rows = curve(metrics)
         jar, succ, q = THESIS_DISCOUNT[gamma]
         thesis = [pct_(jar), f"{succ:.3f}", f"{q:.1f}"]
         if not rows:

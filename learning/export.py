@@ -23,7 +23,9 @@
   Q of the run and where, and the largest refill-water share, per log window and cumulative
   since step 0 (the authors' code plots the cumulative share: the thesis's Figure A.2);
   the wall time of the training loop (the sum of each
-  log window's steps over its measured rate). A GNN run's are its summary.json
+  log window's steps over its measured rate); and the run's curve, a row every
+  5,000 steps with Figure A.1's four series and the cumulative refill-water share,
+  so that the report redraws Figure A.1 from committed files (about 10 KB a run). A GNN run's are its summary.json
   (validation L1, best epoch, seconds per epoch). Default: results/training-<name>.json.
 - A GNN dataset (megabytes of graphs) is committed as its key figures only, read from its
   meta.json: the settings it was built with, its states per kind (faithful, prepared), the
@@ -55,6 +57,8 @@ MILESTONES = (50_000, 100_000, 250_000, 500_000)
 PRECISION = "float16"
 PROBE_STATES = 1000           # (state, task) pairs on which a float16 checkpoint must act as its float32 source
 TIE = 0.01                    # Q gaps below this are ties (trained values are tens to hundreds)
+CURVE_EVERY = 5_000           # steps between the rows of a run's exported curve
+CURVE_KEYS = ("success_rate", "task_return", "selected_q", "td_target")      # Figure A.1's panels
 
 
 def compact(payload: dict, source: str | None = None, half: bool = True) -> dict:
@@ -139,7 +143,15 @@ def key_figures(logs: list[dict], evals: list[dict], refill: str = "refill-water
             "peak_refill_share": {"step": top[1], "share": top[0]},
             "peak_refill_share_cumulative": {"step": top_cumulative[1], "share": top_cumulative[0]},
             "train_hours": round(seconds / 3600, 3),
-            "steps_per_s_median": _median([r["steps_per_s"] for r in logs if r.get("steps_per_s")])}
+            "steps_per_s_median": _median([r["steps_per_s"] for r in logs if r.get("steps_per_s")]),
+            "curve": [{"step": r["step"], **{k: _short(r[k]) for k in CURVE_KEYS if k in r},
+                       "refill_share_cumulative": cumulative[r["step"]]}
+                      for r in logs if r["step"] % CURVE_EVERY == 0 or r is logs[-1]]}
+
+
+def _short(x):
+    """Five significant digits: a curve to draw, not to resume from."""
+    return float(f"{x:.5g}") if isinstance(x, float) else x
 
 
 def _eval(e: dict) -> dict:

@@ -183,7 +183,8 @@ def test_report_only_from_the_committed_results(tmp_path, monkeypatch):
 
 
 def test_training_curves_leave_out_runs_in_progress(tmp_path, monkeypatch):
-    """Figure A.1 draws a seed's run once it is exported (finished), not while it trains."""
+    """Figure A.1 draws a seed's run once it is exported (finished), not while it trains; from the curve
+    its results file keeps where it keeps one."""
     from experiments.report_specs import training_logs
 
     monkeypatch.chdir(tmp_path)
@@ -192,6 +193,8 @@ def test_training_curves_leave_out_runs_in_progress(tmp_path, monkeypatch):
     (tmp_path / "results" / "training-myopic-two-room-seed4.json").write_text("{}")
     assert training_logs("two-room", "myopic") == [(4, "runs/dqn/restaurant-two-room-myopic-seed4/metrics.jsonl")]
     assert training_logs("two-room", "anticipatory") == []
+    (tmp_path / "results" / "training-myopic-two-room-seed4.json").write_text('{"curve": []}')   # kept with its curve
+    assert training_logs("two-room", "myopic") == [(4, "results/training-myopic-two-room-seed4.json")]
 
 
 def test_a_figure_from_training_logs_is_kept_where_the_logs_are_not(tmp_path):

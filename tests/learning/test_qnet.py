@@ -626,3 +626,9 @@ def test_key_figures_of_a_run():
     assert f["at"]["250000"]["refill_share_cumulative"] == round((9 * 0.01 + 0.04) / 10, 5)
     assert f["peak_refill_share_cumulative"] == {"step": 250_000, "share": 0.013}
     assert f["train_hours"] == round(250_000 / 100 / 3600, 3)
+    # the curve Figure A.1 is drawn from: a row every 5,000 steps and the last one
+    logs = [{**logs[0], "step": s, "selected_q": 1 / 3} for s in range(1_000, 12_001, 1_000)]
+    f = key_figures(logs, evals)
+    assert [r["step"] for r in f["curve"]] == [5_000, 10_000, 12_000]
+    assert f["curve"][0] == {"step": 5_000, "success_rate": 0.041667, "selected_q": 0.33333,
+                             "td_target": 9.0, "refill_share_cumulative": 0.01}
