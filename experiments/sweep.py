@@ -23,7 +23,8 @@ canonical sequences (default: the development split 1,3,6) for every β × budge
 item, each setting's results file goes to RESULTS (`experiments.workers`: identical to
 `python -m experiments.evaluate --agent rl-guided ...` run serially).
 
-OUT (default results/sweeps/<kind>-<domain or layout>.json) lists every point with its
+OUT (default guided: results/sweeps/guided-<checkpoint name>.json; train: named after the grid,
+results/sweeps/train-<domain>-<layouts>-<horizons>-seed<seeds>[-<setting><values>].json) lists every point with its
 figures, the wall time, the summed item times and how the items ran. --workers N: N local
 processes (default 1: serially, here); --ray: Ray tasks (plain tasks, not Ray Tune) on a
 local instance, or on the cluster at RAY_ADDRESS.
@@ -72,6 +73,22 @@ def _values(text: str, kind, name: str) -> list:
         except ValueError:
             raise DomainError(f"--{name.replace('_', '-')}", f"'{text}' is not a list of {kind.__name__} values") from None
     return out
+
+
+def summary_name(domain: str, grid: dict) -> str:
+    """train-<domain>-<layouts>-<horizons>-seed<seeds>[-<setting><values>...]: a training sweep's default
+    summary, named after its grid, so that two sweeps of one domain keep their own. Values are joined
+    by '+', runs of consecutive integers written a-b (seed 0-3+8)."""
+    def spell(values):
+        runs = []
+        for v in values:
+            if isinstance(v, int) and runs and isinstance(runs[-1][1], int) and v == runs[-1][1] + 1:
+                runs[-1][1] = v
+            else:
+                runs.append([v, v])
+        return "+".join(str(a) if a == b else f"{a}-{b}" for a, b in runs)
+    return "-".join(["train", domain, *(spell(v) if axis in ("layout", "horizon") else f"{axis}{spell(v)}"
+                                       for axis, v in grid.items())])
 
 
 def _field_kind(f) -> type:
@@ -256,7 +273,7 @@ def main() -> None:
             raise DomainError("--checkpoint", "--kind guided needs a checkpoint")
         if len(layouts) != 1:
             raise DomainError("--layout", "--kind guided sweeps one layout (its checkpoint's)")
-        out = Path(args.out or f"results/sweeps/guided-{layouts[0]}.json")
+        out = Path(args.out or f"results/sweeps/guided-{Path(args.checkpoint).stem}.json")
         result, wall = guided_sweep(args, layouts[0], out)
     else:
         grid = {"layout": layouts, "horizon": _values(args.horizon, str, "horizon"),
@@ -274,7 +291,7 @@ def main() -> None:
         for h in grid["horizon"]:
             if h not in ("myopic", "anticipatory"):
                 raise DomainError("--horizon", f"'{h}' is neither myopic nor anticipatory")
-        out = Path(args.out or f"results/sweeps/train-{models[0].name}.json")
+        out = Path(args.out or f"results/sweeps/{summary_name(models[0].name, grid)}.json")
         result, wall = train_sweep(args, grid, settings, out)
     item_seconds = sum(pt.get("seconds") or 0 for pt in result["points"]) if args.kind == "train" else None
     result.update(wall_seconds=round(wall, 2), ran=describe(args.workers, args.ray), provenance=provenance())

@@ -175,6 +175,17 @@ def test_a_sweep_over_workers_gives_the_serial_results(tiny, tmp_path, serial_sw
         assert again["items_reused"] == 2 and points(again) == points(serial)
 
 
+def test_a_training_sweeps_summary_is_named_after_its_grid():
+    """Two sweeps of one domain keep their own summaries: the default name spells the grid."""
+    from experiments.sweep import summary_name
+
+    assert summary_name("restaurant", {"layout": ["three-room"], "horizon": ["anticipatory"], "seed": [42]}) \
+        == "train-restaurant-three-room-anticipatory-seed42"
+    assert summary_name("restaurant", {"layout": ["two-room", "three-room"], "horizon": ["myopic"],
+                                       "seed": [0, 1, 2, 3, 8, 16, 17], "gamma": [0.95, 0.97]}) \
+        == "train-restaurant-two-room+three-room-myopic-seed0-3+8+16-17-gamma0.95+0.97"
+
+
 def test_a_deployed_sweep_exports_each_run_and_plays_it_greedily(tiny, tmp_path):
     """--deploy: each finished run's compact checkpoint, key figures and rl-greedy results, named as
     learning.export and experiments.evaluate name them; the results file is the greedy evaluation's."""
