@@ -16,8 +16,8 @@ minute), it writes the report (default docs/results.md) and its figures
 """
 from __future__ import annotations
 
-import json
 import argparse
+import json
 import shlex
 import subprocess
 import sys
