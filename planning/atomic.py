@@ -47,3 +47,61 @@ def sha256(path) -> str | None:
     """The hex sha256 of a file's bytes (None if there is no such file): the provenance of a checkpoint."""
     path = Path(path)
     return hashlib.sha256(path.read_bytes()).hexdigest() if path.is_file() else None
+
+
+class OutputLock:
+    """Held while a process writes an output (a results file, a run folder, a dataset): a second
+    writer of the same output stops at once with a one-line error instead of interleaving with it.
+
+        with OutputLock(out):
+            ...   # play, train, write
+
+    The lock is an advisory `flock` on a hidden `.NAME.lock` beside the output (inside it, for a
+    folder); the operating system drops it when the process dies, so a killed run never leaves
+    the output locked. Re-entrant within a process.
+    """
+
+    _held: dict = {}
+
+    def __init__(self, path, what: str = "output"):
+        path = Path(path)
+        self.path = path
+        self.what = what
+        self.lock = (path / ".lock") if path.is_dir() else path.parent / f".{path.name}.lock"
+        self._fd = None
+
+    def __enter__(self) -> "OutputLock":
+        import fcntl
+
+        from planning.errors import DomainError
+
+        key = str(self.lock.resolve())
+        if key in OutputLock._held:
+            OutputLock._held[key][1] += 1
+            return self
+        self.lock.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(self.lock, os.O_RDWR | os.O_CREAT, 0o666)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(fd)
+            raise DomainError(self.path, f"another process is writing this {self.what}; wait for it to "
+                                         "finish, or write to another --out") from None
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        OutputLock._held[key] = [fd, 1]
+        return self
+
+    def __exit__(self, *exc) -> None:
+        key = str(self.lock.resolve())
+        held = OutputLock._held.get(key)
+        if held is None:
+            return
+        held[1] -= 1
+        if held[1] == 0:
+            del OutputLock._held[key]
+            try:
+                self.lock.unlink()
+            except OSError:
+                pass
+            os.close(held[0])

@@ -32,10 +32,11 @@ class DomainSource:
     problem: object                 # tarski Problem: language, init, goal
     actions: dict[str, Action]      # domain action schemas, in file order
     task_schemas: dict[str, Action]  # task schemas, in file order
+    domain_name: str = ""           # the PDDL `(define (domain NAME))`: the domain's name everywhere
 
     @property
     def name(self) -> str:
-        return self.folder.name
+        return self.domain_name or self.folder.name
 
 
 def read_config(folder: Path) -> dict:
@@ -104,4 +105,4 @@ def read_domain(folder: str | Path, layout: str) -> DomainSource:
     if problem.domain_name.strip() != domain_name:
         raise DomainError(problem_file, f"names domain '{problem.domain_name.strip()}', not '{domain_name}'")
     return DomainSource(folder, layout, domain_file, tasks_file, problem_file, config,
-                        problem, actions, task_schemas)
+                        problem, actions, task_schemas, domain_name)
