@@ -18,7 +18,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from oracles.command import play, run_options
+from oracles.command import figures, play, run_options, what_ran
 from planning import cli
 from planning.domain.compiler import compile_domain
 from planning.parallel import one_thread
@@ -52,13 +52,13 @@ def main() -> None:
 
     def over_workers(out, log):             # each sequence a work item; the run below merges their rows
         if args.workers > 1 or args.ray:
-            play_over_workers([Job(known.agent, args, model, agent, ids, out, args.force, log)], args.workers, args.ray,
-                              progress=not args.no_progress)
+            return play_over_workers([Job(known.agent, args, model, agent, ids, out, args.force, log)],
+                                     args.workers, args.ray, progress=not args.no_progress)
+        return None
 
     r, out = play(model, agent, ids, args, before=over_workers)
-    print(f"{r['agent']} {r['layout']}: cost per task {r['cost_per_task']}, actions per task "
-          f"{r['actions_per_task']}, success rate {r['success_rate']}, "
-          f"improvement vs myopic {r['improvement_vs_myopic']}; wrote {out}", file=sys.stdout)
+    print(f"{r['agent']} {r['layout']}, sequences {cli.format_ids(ids)}: {figures(r)}", file=sys.stdout)
+    print(what_ran(r), file=sys.stdout)
 
 
 if __name__ == "__main__":

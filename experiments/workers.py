@@ -27,9 +27,10 @@ from pathlib import Path
 
 from planning.atomic import write_json
 from planning.domain.compiler import compile_domain
+from planning.domain.identity import identity
 from planning.errors import DomainError
 from planning.parallel import provenance, run_items
-from planning.world.runner import difference, play_sequence
+from planning.world.runner import DEFAULT_PROTOCOL, difference, play_sequence
 from planning.world.sequences import load
 
 from .registry import agent_class
@@ -47,6 +48,11 @@ class Job:
     out: str
     force: bool = False
     log: str | None = None     # the agent's JSON-lines log (set_log), if it keeps one
+
+    @property
+    def protocol(self) -> str:
+        """The failure protocol the command plays under (`--failure-protocol`)."""
+        return getattr(self.args, "failure_protocol", DEFAULT_PROTOCOL)
 
 
 def _load(path: Path, what: str) -> dict | None:
@@ -69,19 +75,21 @@ def part_path(out, seq_id: int) -> Path:
 
 
 def already_done(job: Job) -> set:
-    """Sequences a finished OUT or OUT.partial.json of the same configuration holds (the runner keeps them)."""
+    """Sequences a finished OUT or OUT.partial.json of the same configuration holds (the runner keeps them);
+    none with `force`, which plays every sequence again."""
     out, partial = Path(job.out), Path(f"{job.out}.partial.json")
     done: set = set()
+    if job.force:
+        return done
     if out.is_file():
         saved = _load(out, "results")
-        diff = difference(saved, job.agent, job.model)
-        if diff and not job.force:
-            raise DomainError(out, f"a finished run with {diff}; pass --force to replace it, or --out another file")
-        if not diff:
-            done |= {int(i) for i in saved.get("sequences", [])}
+        diff = difference(saved, job.agent, job.model, job.protocol)
+        if diff:
+            raise DomainError(out, f"a finished run with {diff}; pass --force to play it again, or --out another file")
+        done |= {int(i) for i in saved.get("sequences", [])}
     if partial.is_file():
         saved = _load(partial, "partial results")
-        if difference(saved, job.agent, job.model) is None:
+        if difference(saved, job.agent, job.model, job.protocol) is None:
             done |= {int(i) for i in (saved.get("done") or {})}
     return done
 
@@ -94,7 +102,7 @@ def _reusable_part(job: Job, seq_id: int) -> dict | None:
         part = _load(path, "sequence results")
     except DomainError:
         return None                                   # half a file: played again
-    if difference(part, job.agent, job.model) is None and part.get("sequence") == seq_id \
+    if difference(part, job.agent, job.model, job.protocol) is None and part.get("sequence") == seq_id \
             and isinstance(part.get("rows"), list):
         return part
     return None
@@ -115,16 +123,19 @@ def play_item(item: dict) -> dict:
             agent.set_log(item["log"])
     seq = load(model, [item["sequence"]])[0]
     t0 = time.perf_counter()
-    rows = play_sequence(model, agent, seq)
-    return {"agent": agent.name, "layout": model.layout, "config": agent.config, "sequence": seq.id,
-            "rows": rows, "wall_seconds": round(time.perf_counter() - t0, 3)}
+    protocol = item.get("protocol", DEFAULT_PROTOCOL)
+    rows = play_sequence(model, agent, seq, protocol=protocol)
+    return {"agent": agent.name, **identity(model), "layout": model.layout, "config": agent.config,
+            "failure_protocol": protocol, "sequence": seq.id, "rows": rows,
+            "wall_seconds": round(time.perf_counter() - t0, 3)}
 
 
 # ---- the driver ----------------------------------------------------------------------------
 def play_over_workers(jobs: list, workers: int = 1, use_ray: bool = False, progress: bool = True) -> dict:
     """Play every job's missing sequences as work items; leave each job's rows in OUT.partial.json.
 
-    Returns {"items": n played, "reused": n taken from OUT.parts, "wall": seconds}.
+    Returns {"items": n played, "reused": n taken from OUT.parts, "wall": seconds,
+    "played": the sequence ids played (over all jobs)}.
     """
     items, owners, reused = [], [], 0
     prov = provenance()
@@ -133,17 +144,18 @@ def play_over_workers(jobs: list, workers: int = 1, use_ray: bool = False, progr
         for i in job.ids:
             if i in done:
                 continue
-            if _reusable_part(job, i) is not None:
+            if not job.force and _reusable_part(job, i) is not None:
                 reused += 1
                 continue
             items.append({"agent": job.agent_name, "args": job.args, "domain": job.args.domain,
-                          "layout": job.model.layout, "sequence": i, "log": job.log})
+                          "layout": job.model.layout, "sequence": i, "log": job.log, "protocol": job.protocol})
             owners.append(j)
 
     def write_part(k, result, meta):
         job = jobs[owners[k]]
-        if difference(result, job.agent, job.model) is not None:
-            raise DomainError(job.out, f"a worker built the agent with {difference(result, job.agent, job.model)}")
+        diff = difference(result, job.agent, job.model, job.protocol)
+        if diff is not None:
+            raise DomainError(job.out, f"a worker built the agent with {diff}")
         write_json(part_path(job.out, result["sequence"]), {**result, "provenance": {**prov, **meta}})
 
     t0 = time.perf_counter()
@@ -151,7 +163,8 @@ def play_over_workers(jobs: list, workers: int = 1, use_ray: bool = False, progr
               desc="sequences")
     for job in jobs:
         merge_parts(job)
-    return {"items": len(items), "reused": reused, "wall": time.perf_counter() - t0}
+    return {"items": len(items), "reused": reused, "wall": time.perf_counter() - t0,
+            "played": sorted({item["sequence"] for item in items})}
 
 
 def merge_parts(job: Job) -> None:
@@ -161,15 +174,19 @@ def merge_parts(job: Job) -> None:
         return
     partial = Path(f"{job.out}.partial.json")
     saved = _load(partial, "partial results") if partial.is_file() else None
-    if saved is None or difference(saved, job.agent, job.model) is not None:
-        saved = {"agent": job.agent.name, "layout": job.model.layout, "config": job.agent.config,
-                 "wall_seconds": 0.0, "done": {}}
+    if saved is None or job.force or difference(saved, job.agent, job.model, job.protocol) is not None:
+        saved = {"agent": job.agent.name, **identity(job.model), "layout": job.model.layout,
+                 "config": job.agent.config, "failure_protocol": job.protocol, "wall_seconds": 0.0, "done": {}}
     merged = []
     for i in job.ids:
         part = _reusable_part(job, i)
         if part is not None:
             saved["done"][str(i)] = part["rows"]
             saved["wall_seconds"] = saved.get("wall_seconds", 0.0) + part["wall_seconds"]
+            prov = part.get("provenance") or {}
+            saved.setdefault("provenance_of", {})[str(i)] = {
+                "commit": prov.get("commit"), "date_utc": prov.get("written"),
+                "host": prov.get("host"), "pid": prov.get("pid")}
             merged.append(part_path(job.out, i))
     write_json(partial, saved)
     for path in merged:

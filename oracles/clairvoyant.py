@@ -10,7 +10,7 @@ satisficing joint plan; the chain's first plan is executed. So every bounded
 window brackets its optimal cost in [lower_bound, window_cost]; where the two
 meet, the chain is optimal and the window counts as solved optimally.
 
-    python -m oracles.clairvoyant --K 3 --layout two-room [--sequences 0-9] [--time-limit 600]
+    python -m oracles.clairvoyant --K 3 --layout two-room [--sequences 0-9] [--time-limit 60]
 
 Every window is also appended as one JSON line to OUT.windows.jsonl as soon as
 it is planned, so the per-window times survive an interrupted sequence.
@@ -22,7 +22,7 @@ import statistics
 import time
 from pathlib import Path
 
-from oracles.command import play, run_options
+from oracles.command import figures, play, run_options, what_ran
 from oracles.myopic import MyopicOracle
 from planning import cli
 from planning.errors import DomainError
@@ -48,7 +48,8 @@ class ClairvoyantOracle(Planner):
     @classmethod
     def options(cls, p) -> None:
         p.add_argument("--K", type=int, default=3, help="tasks planned jointly (default: %(default)s)")
-        p.add_argument("--time-limit", type=float, default=600.0, help="seconds per window (default: %(default)s)")
+        p.add_argument("--time-limit", type=float, default=60.0,
+                       help="seconds per window (default: %(default)s, as the committed runs)")
         p.add_argument("--heuristic", default="pdb", choices=names("window"),
                        help="joint search heuristic (default: %(default)s)")
 
@@ -56,7 +57,7 @@ class ClairvoyantOracle(Planner):
     def from_args(cls, args, model=None) -> "ClairvoyantOracle":
         return cls(args.K, args.time_limit, args.heuristic)
 
-    def __init__(self, K: int, time_limit: float = 600.0, heuristic: str = "pdb", log: str | None = None):
+    def __init__(self, K: int, time_limit: float = 60.0, heuristic: str = "pdb", log: str | None = None):
         """`heuristic`: the joint search's (see JointSearch.plan); `log`: a JSON-lines file of windows."""
         if K < 1:
             raise DomainError("--K", f"must be at least 1, not {K}")
@@ -149,11 +150,13 @@ def main() -> None:
     args = p.parse_args()
     ids = cli.parse_ids(args.sequences)
     model = compile_domain(args.domain, args.layout)
-    r, out = play(model, ClairvoyantOracle.from_args(args, model), ids, args)
-    print(f"\nclairvoyant K={args.K}, {model.name} {model.layout}, sequences {args.sequences}")
-    print(f"cost per task {r['cost_per_task']}, improvement vs myopic {r['improvement_vs_myopic']}, "
-          f"share optimal {r['share_optimal']}, window seconds median {r['median_window_seconds']} "
-          f"max {r['max_window_seconds']}; wrote {out}")
+    agent = ClairvoyantOracle.from_args(args, model)
+    r, out = play(model, agent, ids, args)
+    windows = agent.summary(r.asked["per_task"])
+    print(f"\nclairvoyant K={args.K}, {model.name} {model.layout}, sequences {cli.format_ids(ids)}")
+    print(f"{figures(r)}, share optimal {windows['share_optimal']}, window seconds median "
+          f"{windows['median_window_seconds']} max {windows['max_window_seconds']}")
+    print(what_ran(r))
 
 
 if __name__ == "__main__":

@@ -1,40 +1,73 @@
-"""The command line every evaluation shares: --force and --strict, the results file, the window log, the run.
+"""The command line every evaluation shares: --force, --strict, the failure protocol, the results file, the run.
 
 The oracles' own commands and `experiments.evaluate` play an agent the same
 way: the results file defaults to the agent's run name, an agent that keeps a
 window log writes it beside the results, and the improvement is measured
-against the myopic oracle's results file of the layout.
+against the myopic oracle's results file of the layout. What a command prints
+is computed from the rows of the sequences it was asked for, and says whether
+it played them now or kept them from a finished file.
 """
 from __future__ import annotations
 
 from planning import cli
-from planning.world.runner import default_out, evaluate
+from planning.world.runner import DEFAULT_PROTOCOL, FAILURE_PROTOCOLS, default_out, evaluate
 
 REFERENCE = "results/myopic-oracle-{layout}.json"
 """The myopic oracle's results file (Fast Downward): every improvement figure is measured against it."""
 
 
 def reference_path(model) -> str:
-    """The myopic oracle's results file of a layout."""
-    return REFERENCE.format(layout=model.layout)
+    """The myopic oracle's results file of a layout (its name carries the domain's, but for the restaurant)."""
+    path = REFERENCE.format(layout=model.layout)
+    return path if model.name == "restaurant" else path.replace("results/", f"results/{model.name}-", 1)
 
 
 def run_options(p) -> None:
-    """--force, --strict and --no-progress, the options of every evaluation."""
-    p.add_argument("--force", action="store_true", help="replace a finished results file made otherwise")
+    """--force, --strict, --failure-protocol and --no-progress, the options of every evaluation."""
+    p.add_argument("--force", action="store_true",
+                   help="play every sequence asked for again, replacing a finished results file (even one made otherwise)")
     p.add_argument("--strict", action="store_true", help="exit non-zero if any planner timed out or crashed")
+    p.add_argument("--failure-protocol", default=DEFAULT_PROTOCOL, choices=list(FAILURE_PROTOCOLS),
+                   help="a failed task is completed by the optimal fallback, which is executed (default, SPEC.md), "
+                        "or abandoned where it stopped (the thesis's protocol; no improvement unless every task "
+                        "succeeds)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars (logs of background runs)")
 
 
-def play(model, agent, ids, args, before=None) -> tuple[dict, str]:
-    """(results, results path) of the agent on the sequences; `before(out, log)` runs first (e.g. workers)."""
+def play(model, agent, ids, args, before=None):
+    """(results, results path) of the agent on the sequences; `before(out, log)` runs first (e.g. workers)
+    and returns the sequences it played, if any. The results are a `planning.world.runner.Evaluation`."""
     out = args.out or default_out(agent, model)
     log = None
     if hasattr(agent, "set_log"):
         log = f"{out}.windows.jsonl"
         cli.check_writable(log)
         agent.set_log(log)
+    elsewhere = {}
     if before is not None:
-        before(out, log)
-    return evaluate(model, agent, ids, out, reference=reference_path(model), force=args.force,
-                    strict=args.strict, progress=not args.no_progress), out
+        elsewhere = before(out, log) or {}
+    r = evaluate(model, agent, ids, out, reference=reference_path(model), force=args.force,
+                 strict=args.strict, progress=not args.no_progress,
+                 protocol=getattr(args, "failure_protocol", DEFAULT_PROTOCOL),
+                 played_by_workers=elsewhere.get("played", ()))
+    r.seconds = round(r.seconds + elsewhere.get("wall", 0.0), 1)
+    return r, out
+
+
+def what_ran(r) -> str:
+    """One line: the sequences played now and how long they took, or that the file was kept as it was."""
+    if r.played:
+        verb = "wrote" if r.wrote else "played"
+        return f"played sequences {cli.format_ids(r.played)} in {r.seconds}s; {verb} {r.out}"
+    return (f"nothing played: every sequence asked for was already in {r.out}, kept as it was "
+            f"(the file's runs took {r['wall_seconds']}s)")
+
+
+def figures(r) -> str:
+    """The headline figures of the sequences asked for, computed from their rows."""
+    a = r.asked
+    line = (f"cost per task {a['cost_per_task']}, actions per task {a['actions_per_task']}, "
+            f"success rate {a['success_rate']}, improvement vs myopic {a['improvement_vs_myopic']}")
+    if a.get("improvement_note"):
+        line += f" ({a['improvement_note']})"
+    return line

@@ -23,7 +23,7 @@ from planning.world.agents import PlanFunction, Planner, Reply
 from planning.world.runner import play_task
 from planning.world.task_stream import PersistentWorld, TaskStream
 
-from oracles.command import play, run_options
+from oracles.command import figures, play, run_options, what_ran
 
 PLANNERS = ("fast-downward", "internal")
 
@@ -146,10 +146,10 @@ def main() -> None:
     ids = cli.parse_ids(args.sequences)
     model = compile_domain(args.domain, args.layout)
     r, out = play(model, MyopicOracle.from_args(args, model), ids, args)
-    print(f"\nmyopic oracle ({args.planner}), {model.name} {model.layout}, sequences {args.sequences}: "
-          f"{r['tasks']} tasks in {r['wall_seconds']}s")
-    print(type_table(r))
-    print(f"wrote {out}")
+    print(f"\nmyopic oracle ({args.planner}), {model.name} {model.layout}, sequences {cli.format_ids(ids)}: "
+          f"{r.asked['tasks']} tasks; {figures(r)}")
+    print(type_table(r.asked))
+    print(what_ran(r))
 
 
 if __name__ == "__main__":

@@ -50,6 +50,17 @@ def parse_ids(text: str) -> list[int]:
     return ids
 
 
+def format_ids(ids) -> str:
+    """[0, 1, 2, 5] -> '0-2,5': the inverse of parse_ids."""
+    ids, parts = sorted(ids), []
+    for i in ids:
+        if parts and parts[-1][1] == i - 1:
+            parts[-1][1] = i
+        else:
+            parts.append([i, i])
+    return ",".join(str(a) if a == b else f"{a}-{b}" for a, b in parts)
+
+
 def check_writable(path, folder: bool = False) -> Path:
     """`path` if a file (or, with `folder`, a folder) can be written there; else a one-line DomainError.
 

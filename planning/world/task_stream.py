@@ -91,6 +91,22 @@ class PersistentWorld:
         self.abandon()
         return list(plan)
 
+    def complete(self, task, plan: list) -> int:
+        """Complete `task`, which has just failed, with `plan`, outside its budget (the runner's fallback):
+        the actions applied, then, if the goal holds, its consumption. The world is where a finished
+        task would leave it. Returns the plan's cost; an error (world unchanged) if it misses the goal."""
+        failed = self.outcomes[-1] if self.outcomes else None
+        if failed is None or failed.success or self.task is not None or failed.task != task.name:
+            raise DomainError(task.name, "only the task that has just failed can be completed")
+        state, cost = self.state, 0
+        for a in plan:
+            state = self.model.apply(state, a)
+            cost += self.model.action_cost[a]
+        if not task.satisfied(state):
+            raise DomainError(failed.task, "the completion plan does not reach its goal")
+        self.state = task.consume(state)
+        return cost
+
     def abandon(self) -> None:
         """Give up the current task (e.g. the planner failed): a failure, its cost so far charged."""
         self._finish(success=False)

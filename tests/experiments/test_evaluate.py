@@ -65,17 +65,90 @@ def test_abandonment_and_auto_completion(two_room):
 
 
 def test_planner_failure_and_short_plan_fail_the_task(two_room):
+    """A failed task is completed by the fallback: its optimal completion is executed, its consumption
+    applied, and the next task starts where a finished task would leave the world."""
+    from planning.domain.batched import BatchedModel
+    from planning.search.optimal import optimal_plan
+
+    m = two_room
+    s = seq(m, ["serve-water(servingtable)", "make-coffee(servingtable)"])
+    start = m.reset_state(5)
+    water = m.tasks.get("serve-water(servingtable)")
+    completion = optimal_plan(BatchedModel(m), start, water)
+    after_water = start
+    for a in completion.plan:
+        after_water = m.apply(after_water, a)
+    after_water = water.consume(after_water)
+    first = next(a for a in m.applicable(after_water))
+    agent = Scripted({"serve-water(servingtable)": Reply(None, {"status": "out-of-time"}),
+                      "make-coffee(servingtable)": Reply([first])})
+    rows = play_sequence(m, agent, s, bar=None)
+    coffee = optimal_cost(m, m.apply(after_water, first), "make-coffee(servingtable)")
+    step = m.action_cost[first]
+    assert [(r["success"], r["executed_cost"], r["actions"]) for r in rows] == [(False, 0, 0), (False, step, 1)]
+    assert [r["cost"] for r in rows] == [completion.cost, step + coffee]        # a failure never costs nothing
+    assert rows[0]["status"] == "out-of-time" and rows[0]["completed_by"] == "fallback"
+    assert rows[0]["completion_plan"] == [m.actions[a] for a in completion.plan]
+
+
+def test_the_thesis_protocol_abandons_where_the_task_stopped(two_room):
+    """--failure-protocol abandon: the executed cost only, and the world stays as the failed task left it."""
     m = two_room
     s = seq(m, ["serve-water(servingtable)", "make-coffee(servingtable)"])
     agent = Scripted({"serve-water(servingtable)": Reply(None, {"status": "out-of-time"}),
                       "make-coffee(servingtable)": Reply([m.action("pick(cup_0, countertop)")])})
-    rows = play_sequence(m, agent, s, bar=None)
+    rows = play_sequence(m, agent, s, bar=None, protocol="abandon")
     start = m.reset_state(5)
-    water = optimal_cost(m, start, "serve-water(servingtable)")
     coffee = optimal_cost(m, m.apply(start, m.action("pick(cup_0, countertop)")), "make-coffee(servingtable)")
-    assert [(r["success"], r["executed_cost"], r["actions"]) for r in rows] == [(False, 0, 0), (False, 100, 1)]
-    assert [r["cost"] for r in rows] == [water, 100 + coffee]        # a failure never costs nothing
-    assert rows[0]["status"] == "out-of-time"
+    assert [(r["cost"], r["completed_by"], r["completion_cost"]) for r in rows] == [(0, "nothing", None),
+                                                                                   (100, "nothing", None)]
+    assert coffee > 0
+
+
+def test_an_agent_that_never_acts_costs_exactly_the_myopic_oracle(two_room, tmp_path, monkeypatch):
+    """Every task of a planner that never plans is completed by the fallback: per task, the oracle's cost,
+    and against the oracle's results file its improvement is 0.0, never positive."""
+    from oracles.myopic import MyopicOracle
+
+    monkeypatch.chdir(tmp_path)
+    short_sequences(monkeypatch, 8)
+    ref = tmp_path / "myopic.json"
+    oracle = evaluate(two_room, MyopicOracle("internal"), [0, 1], ref, progress=False, reference=ref)
+    idle = evaluate(two_room, GivesUp(), [0, 1], tmp_path / "idle.json", progress=False, reference=ref)
+    assert [r["cost"] for r in idle["per_task"]] == [r["cost"] for r in oracle["per_task"]]
+    assert oracle["improvement_vs_myopic"] == 0.0 and idle["improvement_vs_myopic"] == 0.0
+    assert idle["success_rate"] < 1 and idle["executed_cost_per_task"] == 0.0
+    # under the thesis's protocol the same agent executes nothing and claims nothing
+    abandon = evaluate(two_room, GivesUp(), [0, 1], tmp_path / "abandon.json", progress=False, reference=ref,
+                       protocol="abandon")
+    assert abandon["cost_per_task"] == 0.0 and abandon["improvement_vs_myopic"] is None
+    assert "not comparable" in abandon["improvement_note"]
+
+
+def test_a_failed_task_never_costs_less_than_finishing_it(two_room):
+    """Executed plus completion is at least the task's optimal cost from where it began (what the agent's
+    executed actions earned is all an agent can gain from a failed task)."""
+    s = seq(two_room, ["serve-water(servingtable)", "make-coffee(servingtable)", "wash(bowls)"])
+    rows = play_sequence(two_room, Oscillate(), s)
+    world = two_room.reset_state(5)
+    for r, task in zip(rows, s.tasks):
+        assert r["cost"] >= optimal_cost(two_room, world, task.name)
+        if not r["success"]:
+            assert r["cost"] == r["executed_cost"] + r["completion_cost"] and r["completed_by"] == "fallback"
+        for name in [*_oscillations(two_room, world, r["actions"]), *r.get("completion_plan", [])]:
+            world = two_room.apply(world, two_room.action(name))
+        world = task.consume(world) if task.satisfied(world) else world
+
+
+def _oscillations(model, state, n):
+    agent = Oscillate()
+    agent.model = model
+    names = []
+    for _ in range(n):
+        a = agent.act(state, None)
+        names.append(model.actions[a])
+        state = model.apply(state, a)
+    return names
 
 
 def test_results_json_and_resume(two_room, tmp_path, monkeypatch):
@@ -98,11 +171,11 @@ def test_results_json_and_resume(two_room, tmp_path, monkeypatch):
     assert [s["tasks"] for s in data["per_sequence"]] == [6, 6]
     # A partial file from an interrupted run: sequence 0 is kept, only 1 is played again.
     partial = tmp_path / "r.json.partial.json"
-    kept = [dict(r, cost=7) for r in data["per_task"] if r["sequence"] == 0]
+    kept = [dict(r, seconds=7.0) for r in data["per_task"] if r["sequence"] == 0]   # marks the kept rows
     partial.write_text(json.dumps({"agent": agent.name, "layout": "two-room", "config": agent.config,
-                                   "wall_seconds": 1.0, "done": {"0": kept}}))
+                                   "failure_protocol": "fallback", "wall_seconds": 1.0, "done": {"0": kept}}))
     resumed = evaluate(two_room, RandomPolicy(seed=1), [0, 1], out, progress=False)
-    assert [r["cost"] for r in resumed["per_task"][:6]] == [7] * 6 and not partial.exists()
+    assert [r["seconds"] for r in resumed["per_task"][:6]] == [7.0] * 6 and not partial.exists()
 
 
 def test_a_finished_run_is_extended_not_replayed(two_room, tmp_path, monkeypatch):
@@ -116,11 +189,11 @@ def test_a_finished_run_is_extended_not_replayed(two_room, tmp_path, monkeypatch
     evaluate(two_room, RandomPolicy(seed=1), [0], out, progress=False)
     data = json.loads(out.read_text())
     for r in data["per_task"]:
-        r["cost"] = 7                           # marks the rows of the finished run
+        r["seconds"] = 7.0                      # marks the rows of the finished run
     out.write_text(json.dumps(data))
     both = evaluate(two_room, RandomPolicy(seed=1), [0, 1], out, progress=False)
     assert both["sequences"] == [0, 1] and both["tasks"] == 8
-    assert [r["cost"] for r in both["per_task"] if r["sequence"] == 0] == [7] * 4
+    assert [r["seconds"] for r in both["per_task"] if r["sequence"] == 0] == [7.0] * 4
     # Asking again for sequences it holds plays nothing and leaves the file, provenance included, as it was
     # (experiments.select_beta reuses the ten-sequence run for its development sequences this way).
     before = out.read_text()
@@ -205,20 +278,24 @@ def test_failures_are_charged_and_a_planner_fault_warns(two_room, tmp_path, monk
     assert r["planner_faults"] == 0
 
 
-def test_rows_written_before_failures_were_charged_are_played_again(two_room, tmp_path, monkeypatch):
+def test_rows_written_under_another_failure_protocol_are_refused_then_played_again(two_room, tmp_path, monkeypatch):
+    """A file whose failed tasks were charged without moving the world (written before the fallback was
+    executed) is a finished run made otherwise: an error naming the protocol; --force plays it again."""
     monkeypatch.chdir(tmp_path)
     short_sequences(monkeypatch, 5)
     out = tmp_path / "r.json"
     r = evaluate(two_room, GivesUp(), [0, 1], out, progress=False)
     data = json.loads(out.read_text())
-    for x in data["per_task"]:                  # sequence 0 as the old runner wrote it: failures cost 0
-        if x["sequence"] == 0 and not x["success"]:
-            for k in ("executed_cost", "completion_cost", "charged_cost"):
-                del x[k]
-            x["cost"] = 0
+    del data["failure_protocol"]
+    for x in data["per_task"]:                  # as the old runner wrote them: charged, the world left as it was
+        x.pop("completed_by", None)
+        x.pop("completion_plan", None)
     out.write_text(json.dumps(data))
-    again = evaluate(two_room, GivesUp(), [0, 1], out, progress=False)
+    with pytest.raises(DomainError, match=r"failure protocol 'charged .*', not 'fallback'; pass --force"):
+        evaluate(two_room, GivesUp(), [0, 1], out, progress=False)
+    again = evaluate(two_room, GivesUp(), [0, 1], out, progress=False, force=True)
     assert [x["cost"] for x in again["per_task"]] == [x["cost"] for x in r["per_task"]]
+    assert again.played == [0, 1] and json.loads(out.read_text())["failure_protocol"] == "fallback"
 
 
 def test_a_sequence_cut_short_in_a_saved_file_is_refused(two_room, tmp_path, monkeypatch):
@@ -229,7 +306,7 @@ def test_a_sequence_cut_short_in_a_saved_file_is_refused(two_room, tmp_path, mon
     data = json.loads(out.read_text())
     partial = tmp_path / "r.json.partial.json"
     partial.write_text(json.dumps({"agent": "gives-up", "layout": "two-room", "config": {},
-                                   "done": {"0": data["per_task"][:3]}}))
+                                   "failure_protocol": "fallback", "done": {"0": data["per_task"][:3]}}))
     before = out.read_text()
     with pytest.raises(DomainError, match=r"partial results, sequence 0: 3 rows for its 5 tasks"):
         evaluate(two_room, GivesUp(), [0], out, progress=False)

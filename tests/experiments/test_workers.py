@@ -88,7 +88,11 @@ def test_the_command_line_with_two_workers(tiny, tmp_path):
                         "grid", "--sequences", "0-1", "--out", str(out), "--workers", "2"],
                        capture_output=True, text=True, cwd=ROOT, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
-    assert strip(json.loads(out.read_text())) == strip(serial)
+    written = json.loads(out.read_text())
+    assert {k: v for k, v in strip(written).items() if k != "improvement_note"} == \
+        {k: v for k, v in strip(serial).items() if k != "improvement_note"}
+    assert written["provenance"]["played_in_this_process"] == [0, 1]         # played by its workers
+    assert "played sequences 0-1" in r.stdout
 
 
 def test_each_sequence_has_its_own_file_and_a_rerun_reuses_it(tiny, tmp_path):
@@ -96,14 +100,15 @@ def test_each_sequence_has_its_own_file_and_a_rerun_reuses_it(tiny, tmp_path):
     out = tmp_path / "r.json"
     # An interrupted run left sequence 0's file (marked), not sequence 1's.
     j = job(tiny, out, RANDOM)
-    rows = [dict(r, cost=7) for r in serial["per_task"] if r["sequence"] == 0]
+    rows = [dict(r, seconds=7.0) for r in serial["per_task"] if r["sequence"] == 0]
     write_json(tmp_path / "r.json.parts" / "seq-00.json",
-               {"agent": "random", "layout": "grid", "config": j.agent.config, "sequence": 0, "rows": rows,
-                "wall_seconds": 1.0})
+               {"agent": "random", "layout": "grid", "config": j.agent.config, "failure_protocol": "fallback",
+                "sequence": 0, "rows": rows, "wall_seconds": 1.0})
     played = play_over_workers([j], workers=2, progress=False)
     assert (played["items"], played["reused"]) == (1, 1)
-    resumed = evaluate(j.model, j.agent, j.ids, j.out, progress=False)
-    assert [r["cost"] for r in resumed["per_task"] if r["sequence"] == 0] == [7] * 5
+    resumed = evaluate(j.model, j.agent, j.ids, j.out, progress=False, played_by_workers=played["played"])
+    assert [r["seconds"] for r in resumed["per_task"] if r["sequence"] == 0] == [7.0] * 5
+    assert resumed.played == [1] and resumed["provenance"]["played_in_this_process"] == [1]
     assert strip(resumed["per_task"][5:]) == strip(serial["per_task"][5:])
 
 
