@@ -25,7 +25,8 @@ import numpy as np
 
 from oracles.rollouts import cache_path, cached_rollout, load_records, replay
 from planning import cli
-from planning.atomic import write_json
+from planning.atomic import OutputLock, write_json
+from planning.domain.identity import identity, mismatch
 from planning.domain.compiler import compile_domain
 from learning.reward import calibration_path, cost_scale
 from planning.errors import DomainError
@@ -105,6 +106,24 @@ def report(result: dict) -> str:
     return "\n".join(lines)
 
 
+def refuse_other(out, model, settings: dict) -> None:
+    """A one-line error if the calibration file at `out` was made for another domain, layout, content or settings."""
+    try:
+        saved = json.loads(Path(out).read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise DomainError(out, f"corrupt calibration ({type(e).__name__}); delete it or pass --force") from None
+    if not isinstance(saved, dict):
+        raise DomainError(out, "corrupt calibration (not a JSON object); delete it or pass --force")
+    diff = mismatch(saved, model)
+    if diff is None and saved.get("layout") != model.layout:
+        diff = f"layout {saved.get('layout')!r}, not {model.layout!r}"
+    for key, value in settings.items():
+        if diff is None and key in saved and saved[key] != value:
+            diff = f"{key} {saved[key]!r}, not {value!r}"
+    if diff is not None:
+        raise DomainError(out, f"a calibration made with {diff}; pass --force to replace it, or --out another file")
+
+
 def main() -> None:
     p = cli.parser(__doc__.splitlines()[0], seed=True)
     p.add_argument("--tasks", type=int, default=2000, help="tasks of the myopic rollout (default: %(default)s)")
@@ -113,6 +132,8 @@ def main() -> None:
     p.add_argument("--planner", default="internal", choices=["internal", "fast-downward"])
     p.add_argument("--time-limit", type=float, default=600.0, help="planner seconds per task (default 600)")
     p.add_argument("--cache-dir", default="runs/rollouts", help="rollout caches (default: %(default)s)")
+    p.add_argument("--force", action="store_true",
+                   help="replace a calibration made with other settings or from other domain content")
     p.add_argument("--cached-only", action="store_true",
                    help="calibrate on the tasks the rollout cache already holds (up to --tasks), planning none")
     args = p.parse_args()
@@ -121,13 +142,19 @@ def main() -> None:
     if args.margin < 0:
         raise DomainError("--margin", f"{args.margin} is negative")
     model = compile_domain(args.domain, args.layout)
-    cli.check_writable(args.out or calibration_path(model))     # before the rollout, not after it
+    out = args.out or str(calibration_path(model))
+    cli.check_writable(out)                                    # before the rollout, not after it
+    settings = {"gamma": args.gamma, "margin": args.margin, "seed": args.seed, "planner": args.planner,
+                "tasks_requested": args.tasks}
+    if Path(out).is_file() and not args.force:
+        refuse_other(out, model, settings)
     start = time.perf_counter()
     if args.cached_only:
         records = stored_records(model, args.seed, args.tasks, args.planner, args.cache_dir)
     else:
         records = cached_rollout(model, args.seed, args.tasks, args.planner, args.time_limit, args.cache_dir)
     result = calibrate(model, records, args.gamma, args.margin)
+    result.update(identity(model))
     result.update({"tasks_requested": args.tasks, "seed": args.seed, "planner": args.planner,
                    "rollout_cache": str(cache_path(model, args.seed, args.planner, args.cache_dir)),
                    "planner_seconds": round(sum(r.info.get("seconds", 0.0) for r in records), 1),
@@ -135,8 +162,8 @@ def main() -> None:
     if result["tasks"] < args.tasks:
         result["note"] += (f"; calibrated on the first {result['tasks']} of {args.tasks} requested tasks "
                            f"(the rollout did not finish)")
-    out = args.out or str(calibration_path(model))
-    write_json(out, result)
+    with OutputLock(out, "calibration"):
+        write_json(out, result)
     print(report(result))
     print(f"wrote {out}")
 

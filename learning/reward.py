@@ -25,8 +25,10 @@ def cost_scale(model) -> float:
 
 
 def calibration_path(model, results_dir="results") -> Path:
-    """Where the calibration of a layout is written: results/calibration-<layout>.json."""
-    return Path(results_dir) / f"calibration-{model.layout}.json"
+    """Where the calibration of a layout is written: results/calibration-<layout>.json for the restaurant
+    (its committed names), results/calibration-<domain>-<layout>.json for any other domain."""
+    name = model.layout if model.name == "restaurant" else f"{model.name}-{model.layout}"
+    return Path(results_dir) / f"calibration-{name}.json"
 
 
 def goal_reward(model, results_dir="results") -> float:
@@ -47,4 +49,9 @@ def goal_reward(model, results_dir="results") -> float:
         raise DomainError(path, f"unreadable calibration ({e!r}); rerun experiments.calibrate") from None
     if (domain, layout) != (model.name, model.layout):
         raise DomainError(path, f"calibrates {domain} {layout}, not {model.name} {model.layout}")
+    from planning.domain.identity import mismatch
+
+    diff = mismatch(data, model)
+    if diff is not None:
+        raise DomainError(path, f"a calibration made from {diff}; rerun experiments.calibrate --force")
     return value
