@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet -e '.[$(EXTRAS)]'
 	touch $@
 
-.PHONY: run test test-slow bench
+.PHONY: run test test-slow smoke bench
 run: $(STAMP)
 	$(PY) -m experiments.demo --layout three-room --sequence 0
 
@@ -24,6 +24,9 @@ test: $(STAMP)
 
 test-slow: $(STAMP)
 	$(PY) -m pytest -m slow
+
+smoke: $(STAMP)
+	$(PY) -m pytest -m smoke tests/smoke
 
 bench: $(STAMP)
 	$(PY) -m planning.domain.bench --layout three-room --out results/bench-three-room.json
