@@ -68,6 +68,22 @@ def sha256(path: str) -> str | None:
     return atomic.sha256(path)
 
 
+def read_json(path, what: str = "results file"):
+    """A file's JSON; one cut short or not JSON at all stops the report with a one-line error naming it
+    (read as missing, its figures would go blank and pass for a run not yet made)."""
+    path = Path(path)
+    try:
+        return json.loads(path.read_text())
+    except json.JSONDecodeError as e:
+        raise DomainError(path, f"corrupt {what} ({e.msg} at line {e.lineno}: cut short or edited by hand); "
+                                "restore it from git, or delete it and rerun the command that writes it") from None
+    except UnicodeDecodeError:
+        raise DomainError(path, f"corrupt {what} (not text); restore it from git, or delete it and rerun the "
+                                "command that writes it") from None
+    except OSError as e:
+        raise DomainError(path, f"cannot read: {e.strerror}") from None
+
+
 def writer_pid(run: Run) -> int | None:
     """The id of another process evaluating this run now (its command line names the agent, the
     layout and the run's options), or None."""
@@ -153,11 +169,9 @@ def load_run(run: Run, ctx: Context) -> Loaded:
                       "interrupted: a .partial.json is there (reproduce resumes it)")
     if not out.is_file():
         return Loaded(run, "not run", note=f"`{run.out}` does not exist")
-    try:
-        data = json.loads(out.read_text())
-        assert isinstance(data, dict) and isinstance(data.get("per_sequence"), list)
-    except (OSError, ValueError, AssertionError):
-        return Loaded(run, "not used", note="unreadable or not a results file")
+    data = read_json(out)
+    if not isinstance(data, dict) or not isinstance(data.get("per_sequence"), list):
+        return Loaded(run, "not used", note="not a results file (no per_sequence list)")
     try:
         agent = ctx.agent(run)
     except DomainError as e:

@@ -7,7 +7,6 @@ within one file.
 """
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -17,13 +16,14 @@ from experiments.report_tables import num, pct, table
 
 
 def read(path) -> dict | None:
+    """A finished results file's content (None if missing or still being written); a corrupt one is a
+    one-line error (`report_data.read_json`), not a table row that reads as never run."""
+    from experiments.report_data import read_json
+
     p = Path(path)
     if not p.is_file() or Path(f"{p}.partial.json").is_file():
         return None
-    try:
-        data = json.loads(p.read_text())
-    except ValueError:
-        return None
+    data = read_json(p)
     return data if isinstance(data, dict) else None
 
 

@@ -14,7 +14,6 @@ restaurant and 5 on the three-room (Appendix A.2), GNN seeds 0, 4, 8 and 16
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -215,11 +214,14 @@ def training_logs(layout: str, horizon: str) -> list[tuple[int, str]]:
     (`learning.export` wrote results/training-<horizon>-<layout>-seed<N>.json), not runs still in progress.
     The log is that results file where it keeps the run's curve, else the run's metrics.jsonl (runs exported
     before curves were kept; runs/ is not committed)."""
+    from experiments.report_data import read_json
+
     out = []
     for s in RL_SEEDS[layout]:
         figures = Path(f"results/training-{horizon}-{layout}-seed{s}.json")
         if figures.is_file():
-            out.append((s, str(figures) if "curve" in json.loads(figures.read_text())
+            data = read_json(figures, "training results file")
+            out.append((s, str(figures) if isinstance(data, dict) and "curve" in data
                         else f"{rl_run_dir(horizon, layout, s)}/metrics.jsonl"))
     return out
 

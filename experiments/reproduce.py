@@ -17,7 +17,6 @@ minute), it writes the report (default docs/results.md) and its figures
 from __future__ import annotations
 
 import argparse
-import json
 import shlex
 import subprocess
 import sys
@@ -30,7 +29,8 @@ from tqdm import tqdm
 
 from experiments import report_figures as figs
 from experiments import report_reference, report_tables
-from experiments.report_data import ALL, Context, load_rows, load_run, read_jsonl, sha256, writer_pid, last_commit
+from experiments.report_data import (ALL, Context, load_rows, load_run, read_json, read_jsonl, sha256, writer_pid,
+                                      last_commit)
 from experiments.report_specs import (AGENTS, LAYOUTS, THESIS, THESIS_DISCOUNT, THESIS_MINIMAL, discount_runs,
                                       rl_checkpoint, rl_run_dir, rows as row_specs, training_logs)
 from planning import cli
@@ -79,9 +79,7 @@ def run_missing(rows, ctx: Context, ids=ALL, progress: bool = True, via: str = "
 
 def stamp(run, via: str) -> None:
     """Name the run's own command in its results file's provenance (the process was reproduce)."""
-    import json
-
-    data = json.loads(Path(run.out).read_text())
+    data = read_json(run.out)
     prov = data.setdefault("provenance", {})
     prov.update(command=run.command, via=via)
     write_json(run.out, data)
@@ -145,7 +143,10 @@ def from_logs(draw, path: Path, logs: list[str]) -> tuple[Path | None, int]:
 def curve(log: str) -> list[dict]:
     """A training run's logged rows: the curve its results file keeps (`learning.export`), or its metrics.jsonl."""
     if log.endswith(".json"):
-        return json.loads(Path(log).read_text())["curve"]
+        data = read_json(log, "training results file")
+        if not isinstance(data, dict) or not isinstance(data.get("curve"), list):
+            raise DomainError(log, "a training results file without its curve (learning.export writes it)")
+        return data["curve"]
     return [r for r in read_jsonl(log) if "step" in r]
 
 

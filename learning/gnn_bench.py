@@ -20,7 +20,6 @@ Times are this process's CPU time with one torch thread.
 from __future__ import annotations
 
 import argparse
-import json
 import platform
 import time
 from pathlib import Path
@@ -60,13 +59,16 @@ def bench(model_path: str, data: str, domain: str, batch: int, repeats: int, n_e
     from learning.gnn_train import split
     from learning.gnn_value import GNNValue, collate, model_summary
 
+    from learning.gnn_dataset import read_meta
+    from learning.gnn_model import check_made_for
+
     meta_path = Path(data) / "meta.json"
-    try:
-        meta = json.loads(meta_path.read_text())
-    except (OSError, json.JSONDecodeError) as e:
-        raise DomainError(meta_path, f"not a gnn_dataset folder ({type(e).__name__})") from None
+    meta = read_meta(data)
+    if not isinstance(meta.get("layout"), str) or not all(k in meta for k in ("n", "atoms", "c_ap")):
+        raise DomainError(meta_path, "not a gnn_dataset's metadata (layout, n, atoms and c_ap expected)")
     model = compile_domain(domain, meta["layout"])
-    value = GNNValue(model_path, model, encoder)
+    check_made_for(meta_path, meta, model, "dataset")
+    value = GNNValue(model_path, model, encoder)            # a model of another layout stops here
     cfg = value.payload.get("config", {})
     _, val = split(meta["n"], int(cfg.get("seed", 0)), float(cfg.get("val_fraction", 0.2)))
     states = [model.state_from_atoms(meta["atoms"][i]) for i in val]

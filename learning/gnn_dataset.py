@@ -37,9 +37,18 @@ labels are checkpointed atomically in OUT/labels.partial.json, so an interrupted
 run resumes where it stopped. The result is a torch-geometric dataset:
 OUT/processed/data.pt (graphs from learning.graph with y = C_AP and the per-task
 costs) and OUT/meta.json (each state's true atoms, the task list, the feature and
-relation names, the configuration, the timings).
+relation names, the configuration, the timings, and the domain's identity:
+`planning.domain.identity`).
 
-    python -m learning.gnn_dataset --layout three-room [--augmented] --n-states 2000 --out DIR
+    python -m learning.gnn_dataset --layout three-room [--augmented] --n-states 2000 [--out DIR] [--force]
+
+OUT defaults to runs/gnn/DOMAIN-LAYOUT-KIND (KIND faithful or augmented). One process
+writes a folder at a time (`planning.atomic.OutputLock`). A finished dataset (its
+meta.json) of another layout, size or domain content is never replaced unless
+--force; the same configuration again is rebuilt from its label checkpoint. The
+caches inside the folder (the label checkpoint, the prepared streams' plans) record
+the layout and the domain's identity, and those made from other content are started
+afresh.
 """
 from __future__ import annotations
 
@@ -54,12 +63,16 @@ import numpy as np
 from tqdm import tqdm
 
 from planning import cli
-from planning.atomic import write_json
+from planning.atomic import OutputLock, write_json
+from planning.domain.identity import identity, mismatch
 from planning.errors import DomainError
 from oracles.rollouts import faithful_states
 from planning.domain.grounding import atom_text
 
 CHECKPOINT_SECONDS = 10.0
+CONTENT_KEYS = ("n_states", "augmented", "n_prepared", "seed", "prepared_streams", "min_clause_cost",
+                "plan_time_limit", "label_time_limit")
+"""The settings that change what a dataset holds (the workers and the exact search's heuristic do not)."""
 
 
 @dataclass
@@ -182,7 +195,9 @@ def prepared_states(model, n: int, cfg: DatasetConfig, cache: Path, progress: bo
     library = ClauseLibrary(model, cfg.min_clause_cost)
     rng = np.random.default_rng(seed)
     task_stream = TaskStream(model, seed)
-    done = json.loads(cache.read_text())["tasks"] if cache.is_file() else []
+    header = {"layout": model.layout, "seed": seed, **identity(model), "min_clause_cost": cfg.min_clause_cost,
+              "plan_time_limit": cfg.plan_time_limit}
+    done = cached_plans(cache, header, model)
     rows: list[dict] = []
     states: dict[int, None] = {}
     state = None
@@ -224,12 +239,30 @@ def prepared_states(model, n: int, cfg: DatasetConfig, cache: Path, progress: bo
             rows.append(row)
         i += 1
         if rows and time.monotonic() - last_save > CHECKPOINT_SECONDS:
-            write_json(cache, {"layout": model.layout, "seed": seed, "tasks": done + rows})
+            write_json(cache, {**header, "tasks": done + rows})
             last_save = time.monotonic()
     bar.close()
     if rows:
-        write_json(cache, {"layout": model.layout, "seed": seed, "tasks": done + rows})
+        write_json(cache, {**header, "tasks": done + rows})
     return list(states)
+
+
+def cached_plans(cache: Path, header: dict, model) -> list[dict]:
+    """The task rows a prepared stream's cache holds for this stream, layout and domain content; [] for a
+    cache made otherwise (a cache: planned again and replaced); a corrupt one is a one-line error."""
+    if not cache.is_file():
+        return []
+    try:
+        saved = json.loads(cache.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise DomainError(cache, f"corrupt prepared-stream cache ({type(e).__name__}); delete it to plan again") from None
+    if not isinstance(saved, dict) or not isinstance(saved.get("tasks"), list) \
+            or not all(isinstance(r, dict) and isinstance(r.get("plan"), list) for r in saved["tasks"]):
+        raise DomainError(cache, "corrupt prepared-stream cache (no list of task rows); delete it to plan again")
+    recorded = {k: saved[k] for k in header if k in saved and k not in ("domain_sha256", "domain_files")}
+    if any(header[k] != v for k, v in recorded.items()) or mismatch(saved, model) is not None:
+        return []
+    return saved["tasks"]
 
 
 def _plan_prepared(model, bm, hmax, library, state, task, draw, cfg, optimal_plan):
@@ -326,14 +359,16 @@ class Workers:
     labelling runs beside the collection; labels are checkpointed atomically every few seconds."""
 
     def __init__(self, cfg: DatasetConfig, checkpoint: Path, known: dict | None = None, progress: bool = True):
+        from planning.domain.compiler import compile_domain
+
         self.cfg, self.checkpoint, self.progress = cfg, checkpoint, progress
+        model = compile_domain(cfg.domain, cfg.layout)
+        self.header = {**identity(model), "layout": model.layout}
         self.labels = dict(known or {})
         if checkpoint.is_file():
-            try:
-                saved = json.loads(checkpoint.read_text())
-            except json.JSONDecodeError as e:
-                raise DomainError(checkpoint, f"corrupt checkpoint: {e.msg}") from None
-            self.labels.update({int(s): tuple(v) for s, v in saved["labels"].items()})
+            labels, saved = read_labels(checkpoint)
+            if saved.get("layout") in (None, model.layout) and mismatch(saved, model) is None:
+                self.labels.update(labels)          # else labels of other states: labelled again
         self.counter = mp.get_context("fork").Value("q", 0)
         self._pool = None
         self._pending: list = []                # label jobs not yet collected
@@ -359,7 +394,7 @@ class Workers:
         return self._pool
 
     def save(self) -> None:
-        write_json(self.checkpoint, {"labels": {str(s): list(v) for s, v in self.labels.items()}})
+        write_json(self.checkpoint, {**self.header, "labels": {str(s): list(v) for s, v in self.labels.items()}})
         self._last_save = time.monotonic()
 
     def label(self, states: list[int]) -> None:
@@ -400,6 +435,33 @@ class Workers:
         self.poll()
 
 
+def read_labels(path: Path) -> tuple[dict, dict]:
+    """({state: (c_ap, costs, seconds)}, the file's content) of a label checkpoint (labels.partial.json);
+    anything but a JSON object with a table of such labels is a one-line DomainError."""
+    try:
+        saved = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise DomainError(path, f"corrupt checkpoint: {getattr(e, 'msg', type(e).__name__)}; delete it to label "
+                                "again") from None
+    if not isinstance(saved, dict) or not isinstance(saved.get("labels"), dict):
+        raise DomainError(path, f"corrupt checkpoint: {type(saved).__name__} {_short(saved)}, not a JSON object "
+                                "with a labels table; delete it to label again")
+    labels = {}
+    for s, v in saved["labels"].items():
+        try:
+            value, costs, seconds = v
+            labels[int(s)] = (float(value), [int(c) for c in costs], float(seconds))
+        except (TypeError, ValueError):
+            raise DomainError(path, f"corrupt checkpoint: the label of state {s} is {_short(v)}, not [C_AP, "
+                                    "costs, seconds]; delete it to label again") from None
+    return labels, saved
+
+
+def _short(value) -> str:
+    text = json.dumps(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
 def label_states(states: list[int], cfg: DatasetConfig, checkpoint: Path, known: dict | None = None,
                  progress: bool = True) -> dict:
     """{state: (c_ap, costs, seconds)} for every state, in cfg.workers processes, checkpointed atomically."""
@@ -420,7 +482,7 @@ def dataset_class():
         def __init__(self, root):
             super().__init__(str(root), log=False)
             self.load(self.processed_paths[0])
-            self.meta = json.loads((Path(root) / "meta.json").read_text())
+            self.meta = read_meta(root)
 
         def _process(self):
             """Only check processed/data.pt is there: torch_geometric's own step would torch.load a
@@ -459,6 +521,23 @@ def dataset_class():
     return LabelledStates
 
 
+def read_meta(root) -> dict:
+    """A gnn_dataset folder's meta.json; a missing, cut-short or malformed one is a one-line DomainError."""
+    path = Path(root) / "meta.json"
+    if not path.is_file():
+        raise DomainError(root, "not a gnn_dataset folder (no meta.json)")
+    try:
+        meta = json.loads(path.read_text())
+    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise DomainError(path, f"corrupt dataset metadata ({getattr(e, 'msg', 'not text')}: cut short or edited "
+                                "by hand); build the dataset again (learning.gnn_dataset)") from None
+    except OSError as e:
+        raise DomainError(path, f"cannot read: {e.strerror}") from None
+    if not isinstance(meta, dict):
+        raise DomainError(path, "corrupt dataset metadata (not a JSON object); build the dataset again")
+    return meta
+
+
 def load_dataset(root):
     """The dataset of a gnn_dataset folder (a DomainError if it is missing or unreadable)."""
     root = Path(root)
@@ -486,7 +565,7 @@ def save_dataset(root, model, states: list[int], labels: dict, meta: dict, encod
     tmp = out.with_name(".data.pt.tmp")
     InMemoryDataset.save(data, str(tmp))
     os.replace(tmp, out)
-    meta = {**meta, "domain": model.name, "layout": model.layout, "n": len(states),
+    meta = {**meta, **identity(model), "layout": model.layout, "n": len(states),
             "tasks": [{"task": t.name, "probability": t.probability} for t in model.tasks],
             "node_names": encoder.node_names, "node_types": encoder.node_types,
             "feature_names": encoder.feature_names, "relation_names": encoder.relation_names,
@@ -497,34 +576,107 @@ def save_dataset(root, model, states: list[int], labels: dict, meta: dict, encod
     return root
 
 
-def known_labels(folders) -> dict:
-    """Labels already computed in other gnn_dataset folders (their labels.partial.json), by state."""
+def known_labels(folders, model=None) -> dict:
+    """Labels already computed in other gnn_dataset folders (their labels.partial.json), by state.
+
+    A state is a number only within its layout and its labels hold only for the domain content they were
+    computed from: labels of another domain, layout or content (the checkpoint's record, else the folder's
+    meta.json) are a one-line error naming the file."""
     known = {}
     for folder in folders or []:
         path = Path(folder) / "labels.partial.json"
         if not path.is_file():
             raise DomainError(path, "missing: --reuse-labels names a gnn_dataset folder")
-        try:
-            known.update({int(s): tuple(v) for s, v in json.loads(path.read_text())["labels"].items()})
-        except (json.JSONDecodeError, KeyError, ValueError):
-            raise DomainError(path, "corrupt label checkpoint") from None
+        labels, saved = read_labels(path)
+        if model is not None:
+            made = saved if "layout" in saved else (read_meta(folder) if (Path(folder) / "meta.json").is_file() else {})
+            where = path if "layout" in saved else Path(folder) / "meta.json"
+            if made.get("domain") not in (None, model.name) or made.get("layout") not in (None, model.layout):
+                raise DomainError(where, f"labels of {made.get('domain')} {made.get('layout')}, not of {model.name} "
+                                         f"{model.layout}; leave out --reuse-labels {folder}")
+            diff = mismatch(made, model)
+            if diff is not None:
+                raise DomainError(where, f"labels made from {diff}: not this content's C_AP; leave out "
+                                         f"--reuse-labels {folder}")
+        known.update(labels)
     return known
 
 
-def build(cfg: DatasetConfig, out, progress: bool = True, reuse=()) -> dict:
+def default_out(model, augmented: bool) -> Path:
+    """The dataset folder a build writes unless told otherwise: runs/gnn/DOMAIN-LAYOUT-KIND."""
+    return Path("runs/gnn") / f"{model.name}-{model.layout}-{'augmented' if augmented else 'faithful'}"
+
+
+def check_replaceable(out: Path, cfg: DatasetConfig, model) -> None:
+    """A one-line error if `out` holds a finished dataset (its meta.json) that this build would not make
+    again: of another domain, layout or domain content, or of other settings (CONTENT_KEYS)."""
+    if not (out / "meta.json").is_file():
+        return
+    meta = read_meta(out)
+    where = out / "meta.json"
+    then = meta.get("config") if isinstance(meta.get("config"), dict) else {}
+    if (meta.get("domain"), meta.get("layout")) != (model.name, model.layout):
+        what = f"{meta.get('domain')} {meta.get('layout')}, not {model.name} {model.layout}"
+    elif mismatch(meta, model) is not None:
+        what = mismatch(meta, model)
+    else:
+        now = asdict(cfg)
+        diff = [f"{k} {then.get(k)!r} there, {now[k]!r} here" for k in CONTENT_KEYS if then.get(k) != now[k]]
+        if not diff:
+            return
+        what = "other settings (" + ", ".join(diff) + ")"
+    raise DomainError(where, f"a finished dataset of {what}; pass --force to replace it, or --out another folder")
+
+
+def build(cfg: DatasetConfig, out, progress: bool = True, reuse=(), force: bool = False) -> dict:
     """Collect, label and save the dataset; returns the metadata written. `reuse`: folders whose labels to take.
 
     The prepared states come from cfg.prepared_streams independent streams, collected in the
-    worker processes while the states found so far are labelled beside them."""
+    worker processes while the states found so far are labelled beside them. A finished dataset
+    in `out` that this configuration would not make again is a one-line error unless `force`;
+    with it, its meta.json goes first, so that the folder reads as unfinished until the new one is
+    written. One process writes `out` at a time."""
     from planning.domain.compiler import compile_domain
 
     out = Path(out)
     model = compile_domain(cfg.domain, cfg.layout)
+    cli.check_writable(out, folder=True)
+    out.mkdir(parents=True, exist_ok=True)
+    with OutputLock(out, "dataset"):
+        if force:
+            forget_finished(out, model)
+        check_replaceable(out, cfg, model)
+        return _build(cfg, out, model, progress, reuse)
+
+
+def forget_finished(out: Path, model) -> None:
+    """What --force drops of a finished dataset: its meta.json, and its label checkpoint too where that
+    records no layout (written before checkpoints did) and the dataset was of another layout or content,
+    whose state numbers would otherwise be read as this layout's."""
+    if not (out / "meta.json").is_file():
+        return
+    try:
+        meta = read_meta(out)
+    except DomainError:
+        meta = {}
+    checkpoint = out / "labels.partial.json"
+    if checkpoint.is_file():
+        try:
+            saved = read_labels(checkpoint)[1]
+        except DomainError:
+            saved = {"layout": None}            # corrupt: Workers says so
+        other = (meta.get("domain"), meta.get("layout")) != (model.name, model.layout) or mismatch(meta, model)
+        if "layout" not in saved and other:
+            checkpoint.unlink()
+    (out / "meta.json").unlink()
+
+
+def _build(cfg: DatasetConfig, out: Path, model, progress: bool, reuse) -> dict:
     t0 = time.perf_counter()
     states = faithful_states(model, cfg.n_states, cfg.seed, progress)
     kinds = ["faithful"] * len(states)
     t_states = time.perf_counter() - t0
-    with Workers(cfg, out / "labels.partial.json", known_labels(reuse), progress) as work:
+    with Workers(cfg, out / "labels.partial.json", known_labels(reuse, model), progress) as work:
         if cfg.augmented:
             n_prep = cfg.n_prepared if cfg.n_prepared is not None else 3 * cfg.n_states
             extra = _prepared(work, cfg, n_prep, states, out, progress)
@@ -581,14 +733,16 @@ def main() -> None:
     p.add_argument("--heuristic", default="pdb", help="labelling search heuristic: pdb, lmcut, lmcut-pc, hmax, blind (default: %(default)s)")
     p.add_argument("--reuse-labels", action="append", default=[], metavar="DIR",
                    help="take the labels another gnn_dataset folder already computed (repeatable)")
+    p.add_argument("--force", action="store_true",
+                   help="replace a finished dataset in --out made with other settings or domain content")
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args()
-    if not args.out:
-        raise DomainError("--out", "a dataset folder is required")
     if args.n_states < 1:
         raise DomainError("--n-states", f"{args.n_states} is not a positive number of states")
     from planning.domain.compiler import compile_domain
-    layout = compile_domain(args.domain, args.layout).layout
+    model = compile_domain(args.domain, args.layout)
+    layout = model.layout
+    args.out = args.out or str(default_out(model, args.augmented))
     cfg = DatasetConfig(layout=layout, domain=args.domain, n_states=args.n_states, augmented=args.augmented,
                         n_prepared=args.n_prepared, seed=args.seed, workers=args.workers,
                         heuristic=args.heuristic)
@@ -596,7 +750,7 @@ def main() -> None:
     if cfg.heuristic not in names("multi-goal"):
         raise DomainError("--heuristic", f"'{cfg.heuristic}' is not one of {', '.join(names('multi-goal'))}")
     t0 = time.perf_counter()
-    meta = build(cfg, args.out, progress=not args.no_progress, reuse=args.reuse_labels)
+    meta = build(cfg, args.out, progress=not args.no_progress, reuse=args.reuse_labels, force=args.force)
     n = len(meta["kinds"])
     print(f"{n} states ({meta['kinds'].count('faithful')} faithful, {meta['kinds'].count('prepared')} prepared) "
           f"in {time.perf_counter() - t0:.1f}s: faithful states {meta['seconds_faithful_states']}s, prepared "

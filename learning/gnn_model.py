@@ -29,11 +29,15 @@ normalisation is folded into a scale and a shift, the attention softmax is done
 with scatter operations.
 
 Checkpoints are plain dicts of tensors and numbers (`learning.plain`), written
-atomically and loaded with weights_only=True (`read_gnn_checkpoint`).
+atomically and loaded with weights_only=True (`read_gnn_checkpoint`). A checkpoint,
+like the dataset it was trained on, names its domain and layout, and since
+`planning.domain.identity` the digest of the domain content it was made from:
+wherever one is loaded it must be of the layout it is used with (`check_made_for`).
 """
 from __future__ import annotations
 
 import io
+import sys
 from pathlib import Path
 
 import torch
@@ -142,6 +146,24 @@ class InferenceGNN:
             total = torch.zeros(g, x.shape[1]).index_add_(0, batch, x)
             count = torch.bincount(batch, minlength=g).clamp_(min=1).unsqueeze(1)
             return torch.addmm(self.head_b, total / count + total, self.head_w).squeeze(-1)
+
+
+def check_made_for(path, saved: dict, model, what: str = "GNN model") -> None:
+    """A one-line DomainError naming `path` if a GNN checkpoint or dataset (`saved`: its payload or
+    meta.json) records another domain or layout than `model`'s: the graphs of another layout have
+    other nodes, so its estimates would be figures of nothing. A recorded digest of other content
+    of the same domain and layout is a one-line warning: the graphs still fit, the labels the model
+    learned may not. A file that records neither (an early checkpoint) is taken as it is."""
+    from planning.domain.identity import mismatch
+
+    domain, layout = saved.get("domain"), saved.get("layout")
+    if domain not in (None, model.name) or layout not in (None, model.layout):
+        raise DomainError(path, f"a {what} of {domain or 'an unnamed domain'} {layout or '(no layout)'}, not of "
+                                f"{model.name} {model.layout}")
+    diff = mismatch(saved, model)
+    if diff is not None:
+        print(f"warning: {path}: a {what} made from {diff}; its C_AP figures may not hold for this content",
+              file=sys.stderr)
 
 
 def parameter_count(model: nn.Module) -> int:

@@ -85,9 +85,14 @@ def evaluate_l1(net: GNNCostModel, subset, batch_size: int = 64) -> float:
     return total / len(subset)
 
 
+IDENTITY_KEYS = ("domain", "domain_sha256", "domain_files")
+"""What a checkpoint records of the domain its dataset was made from (`planning.domain.identity`)."""
+
+
 def _payload(net, cfg, meta, epoch, val_l1, train_idx, val_idx) -> dict:
     return {"model": net.state_dict(), "dims": dict(net.dims), "config": asdict(cfg), "epoch": epoch,
-            "val_l1": val_l1, "domain": meta.get("domain"), "layout": meta.get("layout"),
+            "val_l1": val_l1, **{k: meta[k] for k in IDENTITY_KEYS if meta.get(k) is not None},
+            "layout": meta.get("layout"),
             "feature_names": list(meta.get("feature_names", [])),
             "relation_names": list(meta.get("relation_names", [])),
             "n_train": int(len(train_idx)), "n_val": int(len(val_idx)), "parameters": parameter_count(net)}
@@ -165,7 +170,7 @@ def train(cfg: TrainConfig, out, progress: bool = True, dataset=None) -> dict:
                "final_val_l1": history[-1]["val_l1"] if history else None,
                "seconds_per_epoch": round(float(np.mean(seconds)), 3) if seconds else None,
                "n_train": int(len(train_idx)), "n_val": int(len(val_idx)), "parameters": parameter_count(net),
-               "dataset": {k: meta.get(k) for k in ("domain", "layout", "n")}}
+               "dataset": {k: meta.get(k) for k in ("domain", "layout", "n", "domain_sha256")}}
     from planning.atomic import write_json
     write_json(out / "summary.json", summary)
     return summary
@@ -184,14 +189,12 @@ def main() -> None:
     if args.epochs < 1:
         raise DomainError("--epochs", f"{args.epochs} is not a positive number of epochs")
     if args.layout is not None:             # optional: checks the dataset is of this domain and layout
+        from learning.gnn_dataset import read_meta
+        from learning.gnn_model import check_made_for
         from planning.domain.compiler import compile_domain
 
         model = compile_domain(args.domain, args.layout)
-        meta_path = Path(args.data) / "meta.json"
-        meta = json.loads(meta_path.read_text()) if meta_path.is_file() else {}
-        if meta and (meta.get("domain"), meta.get("layout")) != (model.name, model.layout):
-            raise DomainError(args.data, f"a dataset of {meta.get('domain')} {meta.get('layout')}, "
-                                         f"not {model.name} {model.layout}")
+        check_made_for(Path(args.data) / "meta.json", read_meta(args.data), model, "dataset")
     cfg = TrainConfig(data=str(args.data), seed=args.seed, epochs=args.epochs, edge_features=args.edge_features)
     s = train(cfg, args.out, progress=not args.no_progress)
     print(f"seed {cfg.seed}: best validation L1 {s['best_val_l1']:.2f} (epoch {s['best_epoch']}), "

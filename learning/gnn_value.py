@@ -29,7 +29,7 @@ import torch
 
 from planning.errors import DomainError
 
-from learning.gnn_model import InferenceGNN, load_gnn
+from learning.gnn_model import InferenceGNN, check_made_for, load_gnn
 from learning.guided import ValueGuidedPlanner
 from learning.reward import cost_scale
 
@@ -65,9 +65,10 @@ class GNNValue:
         else:
             self.net, self.payload = checkpoint
             self.checkpoint = None
+        where = self.checkpoint or "GNN model"
+        check_made_for(where, self.payload, model)          # before the encoder: a wrong layout costs nothing
         self.net.eval()
         self.encoder = encoder or GraphEncoder(model)
-        where = self.checkpoint or "GNN model"
         names = self.payload.get("feature_names")
         if names and list(names) != list(self.encoder.feature_names):
             raise DomainError(where, f"trained on {len(names)} node features of layout "

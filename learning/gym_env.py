@@ -28,7 +28,9 @@ An invalid action (a ground action not applicable in the state, or a factored ve
 none) is a no-op: the world is unchanged, it costs nothing in PDDL units, it uses one of the
 task's actions (so a task cannot be stalled forever), and its reward is `-invalid_penalty`
 (default: the dearest action's cost / cost_scale, so it is never better than acting).
-`check_env`'s unmasked samples rely on it; a masked agent never takes one.
+`check_env`'s unmasked samples rely on it; a masked agent never takes one. Something that is
+not an element of the action space at all (1.7, True, a vector where a scalar is due, a value
+past the space) is a ValueError naming it (`action_value`), never rounded to an action.
 
 Reward: `learning.reward.step_reward`, the trainer's: -cost / cost_scale, plus R_goal (domain.toml
 [reward], else the layout's calibration file) when the action completes the task. A task that
@@ -180,20 +182,40 @@ class AnticipatoryEnv(gym.Env):
         return self._task
 
     # ---- acting ----------------------------------------------------------------------------
+    def action_value(self, action):
+        """The action as the space's element: an int (Discrete) or an int64 vector (MultiDiscrete).
+
+        An action that is not an element is a ValueError naming it, never rounded into one: a
+        float with a fractional part (1.7 is not action 1), a bool, a string, another shape
+        (Discrete takes a scalar, MultiDiscrete one value per head) or a value outside the space.
+        Integers of any kind pass (Python ints, numpy integer scalars and 0-d arrays, as
+        policies return them), and so do floats that are whole numbers."""
+        arr = np.asarray(action)
+        shape = (len(self.head_sizes),) if self.factored else ()
+        whole = arr.dtype.kind in "iu" or (arr.dtype.kind == "f" and bool(np.all(np.isfinite(arr) & (arr == np.round(arr)))))
+        if arr.dtype == np.bool_ or not whole:
+            raise ValueError(f"action {action!r} is not {'a vector of integers' if self.factored else 'an integer'} "
+                             f"of {self.action_space}")
+        if arr.shape != shape:
+            raise ValueError(f"action {action!r} has shape {arr.shape}, not {shape} of {self.action_space}")
+        value = arr.astype(np.int64) if self.factored else int(arr)
+        if not self.action_space.contains(value):
+            raise ValueError(f"action {action!r} is not in {self.action_space}")
+        return value
+
     def ground_action(self, action) -> int | None:
         """The applicable ground action an action of the space names, or None (an invalid action)."""
+        value = self.action_value(action)
         if self.factored:
-            key = tuple(int(x) for x in np.asarray(action).reshape(-1))
+            key = tuple(value.tolist())
             hits = [a for a in self._applicable if tuple(self.labels[a].tolist()) == key]
             return hits[0] if hits else None
-        a = int(action)
-        return a if a in self._applicable_set else None
+        return value if value in self._applicable_set else None
 
     def step(self, action):
         if self._world is None or self._world.task is None:
             raise RuntimeError("call reset() first (the episode has ended)")
-        if not self.action_space.contains(np.asarray(action, dtype=np.int64) if self.factored else int(action)):
-            raise ValueError(f"{action!r} is not in {self.action_space}")
+        self.action_value(action)                          # a ValueError before anything changes
         world, task = self._world, self._task
         a = self.ground_action(action)
         completed = abandoned = False

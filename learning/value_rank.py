@@ -26,7 +26,6 @@ trained on these states is scored on its validation split only.
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 import numpy as np
@@ -67,13 +66,17 @@ def agreement(v: np.ndarray, c_ap: np.ndarray) -> dict:
 def rank(values: list, data: str, domain: str) -> dict:
     """The figures of the module's docstring, per value (a checkpoint path, or any object of the
     Value protocol), over the dataset's labelled states."""
+    from learning.gnn_dataset import read_meta
+    from learning.gnn_model import check_made_for
+
     meta_path = Path(data) / "meta.json"
+    meta = read_meta(data)
     try:
-        meta = json.loads(meta_path.read_text())
         layout, atoms, labels = meta["layout"], meta["atoms"], np.asarray(meta["c_ap"], dtype=float)
-    except (OSError, ValueError, KeyError, TypeError) as e:
+    except (ValueError, KeyError, TypeError) as e:
         raise DomainError(meta_path, f"not a learning.gnn_dataset folder ({type(e).__name__})") from None
     model = compile_domain(domain, layout)
+    check_made_for(meta_path, meta, model, "dataset")
     states = [model.state_from_atoms(a) for a in atoms]
     kinds = np.asarray(meta.get("kinds") or ["all"] * len(states))
     out = {"data": data, "domain": model.name, "layout": model.layout, "cost_scale": model.cost_scale,

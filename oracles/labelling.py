@@ -20,7 +20,11 @@ older, larger task set carry a stale (smaller) f; they are re-scored when popped
 and queued again if their f rose, which keeps the search from expanding states
 only a settled task needed.
 
-    python -m oracles.labelling --layout three-room [--state FILE] [--out FILE]
+    python -m oracles.labelling --layout three-room [--state FILE] [--out FILE] [--force]
+
+--out writes the label with the domain's identity (`planning.domain.identity`), the layout and
+the state's atoms; it never replaces a labels file of another state, layout or domain content
+(nor any other file) unless --force.
 """
 from __future__ import annotations
 
@@ -476,6 +480,37 @@ def check_possible(model, state: int, where) -> None:
                                          f"{atom_text(model.atoms[j])} never hold together in this layout")
 
 
+def labels_file(model, state: int, label: Label, heuristic: str) -> dict:
+    """What --out writes: the domain's identity, the layout, the state's atoms, C_AP and every task's cost."""
+    from planning.domain.identity import identity
+
+    return {**identity(model), "layout": model.layout, "heuristic": heuristic,
+            "state": [atom_text(k) for k in model.true_atoms(state)], **label.as_json(model.tasks)}
+
+
+def check_replaceable(path, model, state: int) -> None:
+    """A one-line error if `path` holds anything but a labels file of this state, layout and domain content
+    (the same label again may be rewritten; another is replaced only with --force)."""
+    from planning.domain.identity import mismatch
+
+    path = Path(path)
+    if not path.is_file():
+        return
+    try:
+        saved = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        saved = None
+    if not isinstance(saved, dict) or "c_ap" not in saved:
+        raise DomainError(path, "exists and is not a labels file; pass --force to replace it, or --out another file")
+    atoms = sorted(atom_text(k) for k in model.true_atoms(state))
+    if saved.get("layout") != model.layout or mismatch(saved, model) is not None \
+            or sorted(saved.get("state") or []) != atoms:
+        what = (f"layout {saved.get('layout')}" if saved.get("layout") != model.layout else
+                mismatch(saved, model) or ("a state it does not record" if saved.get("state") is None
+                                           else "another state"))
+        raise DomainError(path, f"a labels file of {what}; pass --force to replace it, or --out another file")
+
+
 def summary(model, label: Label) -> str:
     """C_AP and every task's cost, one line per task, for the command line."""
     lines = [f"{model.name} {model.layout}: C_AP = {label.c_ap:.2f} over {len(label.costs)} tasks "
@@ -493,6 +528,7 @@ def main() -> None:
                                                  "(default: the layout's start state)")
     p.add_argument("--heuristic", default="pdb", choices=names("multi-goal"), help="(default: %(default)s)")
     p.add_argument("--time-limit", type=float, default=None, help="seconds for the search (default: none)")
+    p.add_argument("--force", action="store_true", help="replace an --out file of another state or domain content")
     args = p.parse_args()
     if args.time_limit is not None and not args.time_limit > 0:
         raise DomainError("--time-limit", f"must be positive, not {args.time_limit}")
@@ -501,6 +537,8 @@ def main() -> None:
     where = args.state or f"the start state of {model.layout}"
     if args.state is not None:
         check_possible(model, state, where)
+    if args.out and not args.force:
+        check_replaceable(args.out, model, state)
     labeller = Labeller(model, args.heuristic, args.time_limit)
     label = labeller.label(state)
     if not label.complete:
@@ -512,8 +550,10 @@ def main() -> None:
                                  "so C_AP is undefined")
     print(summary(model, label))
     if args.out:
-        write_json(args.out, {"domain": model.name, "layout": model.layout, "heuristic": labeller.heuristic,
-                              **label.as_json(model.tasks)})
+        from planning.atomic import OutputLock
+
+        with OutputLock(args.out, "labels file"):
+            write_json(args.out, labels_file(model, state, label, labeller.heuristic))
         print(f"wrote {args.out}")
 
 

@@ -14,7 +14,10 @@ the file rewritten atomically every few tasks, so an interrupted run resumes.
 One file per (domain, layout, planner, seed), e.g.
 runs/rollouts/restaurant-two-room-internal-seed0.json. Plans are stored as
 ground-action names with each record's task, reset seed, cost, success and
-auto flag; states are rebuilt by replay on load and checked against them.
+auto flag; states are rebuilt by replay on load and checked against them. A
+file records the domain's identity (`planning.domain.identity`); one made from
+other domain content (an edited action cost, task or layout) is not replayed
+but planned again and replaced, as a cache is.
 
     python -m oracles.rollouts --layout two-room --tasks 2000 --seed 0 [--planner internal|clairvoyant-3]
 """
@@ -29,6 +32,7 @@ from tqdm import tqdm
 from planning import cli
 from planning.atomic import write_json
 from planning.domain.compiler import compile_domain
+from planning.domain.identity import identity, mismatch
 from planning.errors import DomainError
 
 from planning.world.agents import Planner, Reply
@@ -98,7 +102,7 @@ def cached_rollout(model, seed: int, n_tasks: int, planner: str = "internal", ti
     if n_tasks < 0:
         raise DomainError("--tasks", f"{n_tasks} is not a number of tasks")
     path = cache_path(model, seed, planner, cache_dir)
-    stored = load_records(model, path, seed, planner) if path.is_file() else []
+    stored = load_records(model, path, seed, planner, stale="rebuild") if path.is_file() else []
     if len(stored) >= n_tasks:
         return replay(model, path, seed, stored[:n_tasks])
     inner, lookahead = make_oracle(planner, time_limit)
@@ -129,8 +133,12 @@ def cached_rollout(model, seed: int, n_tasks: int, planner: str = "internal", ti
     return records
 
 
-def load_records(model, path, seed: int, planner: str) -> list[TaskRecord]:
-    """The records a cache file holds, not yet replayed (states empty); a DomainError if it is unreadable."""
+def load_records(model, path, seed: int, planner: str, stale: str = "error") -> list[TaskRecord]:
+    """The records a cache file holds, not yet replayed (states empty); a DomainError if it is unreadable.
+
+    A file made from other content of the domain (its recorded digest differs) holds nothing for this
+    one: `stale` "rebuild" reads it as empty (the caller plans the rollout again and replaces it),
+    "error" makes it a one-line error."""
     path = Path(path)
     try:
         data = json.loads(path.read_text())
@@ -143,6 +151,11 @@ def load_records(model, path, seed: int, planner: str) -> list[TaskRecord]:
         if data.get(key) != value:
             raise DomainError(path, f"rollout cache has {key} {data.get(key)!r}, expected {value!r}; "
                                     f"delete it to recompute")
+    diff = mismatch(data, model)
+    if diff is not None:
+        if stale == "rebuild":
+            return []
+        raise DomainError(path, f"a rollout cache made from {diff}; delete it to recompute")
     out = []
     for i, r in enumerate(data["records"]):
         try:
@@ -192,15 +205,18 @@ def _check_against(rec: TaskRecord, want: TaskRecord, path) -> None:
 
 
 def _save(model, path: Path, seed: int, planner: str, config: dict, records: list[TaskRecord]) -> None:
-    # Another process extending the same cache may already have written more; keep the longer file.
+    # Another process extending the same cache may already have written more; keep the longer file
+    # (if it is of this domain content: a stale one is replaced).
+    mine = identity(model)
     if path.is_file():
         try:
-            if len(json.loads(path.read_text()).get("records", [])) > len(records):
+            there = json.loads(path.read_text())
+            if there.get("domain_sha256") == mine["domain_sha256"] and len(there.get("records", [])) > len(records):
                 return
         except (OSError, ValueError, AttributeError):
             pass
     write_json(path, {
-        "format": FORMAT, "domain": model.name, "layout": model.layout, "planner": planner, "seed": seed,
+        "format": FORMAT, **mine, "layout": model.layout, "planner": planner, "seed": seed,
         "config": config, "tasks": len(records),
         "records": [{"task": r.task, "reset_seed": r.reset_seed, "plan": [model.actions[a] for a in r.plan],
                      "cost": r.cost, "success": r.success, "auto": r.auto, "info": r.info} for r in records]})
@@ -253,7 +269,7 @@ def main() -> None:
         print(type_table({"per_task": table}))
     print(f"wrote {cache_path(model, args.seed, args.planner, args.cache_dir)}")
     if args.out:
-        write_json(args.out, {"domain": model.name, "layout": model.layout, "planner": args.planner,
+        write_json(args.out, {**identity(model), "layout": model.layout, "planner": args.planner,
                               "seed": args.seed, "tasks": len(table),
                               "cost_per_task": round(sum(r["cost"] for r in table) / n, 2), "per_task": table})
         print(f"wrote {args.out}")

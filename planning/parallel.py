@@ -24,7 +24,9 @@ there (relative paths mean the same). `on_result(i, result, meta)`
 runs in this process as each item finishes (meta: the worker's host and pid, the item's
 seconds), so the caller writes each item's file at once and a rerun skips what is done. A
 failing item stops the run: the items not yet started are cancelled and its error is raised
-here (a DomainError stays one line).
+here (a DomainError stays one line). A worker that dies (killed, out of memory: the pool's
+BrokenProcessPool, Ray's WorkerCrashedError) is one DomainError line too, saying how many
+items finished; their on_result has run, so a rerun of the command plays only the rest.
 """
 from __future__ import annotations
 
@@ -105,7 +107,7 @@ def run_items(fn, items: list, workers: int = 1, use_ray: bool = False, on_resul
 
     try:
         if use_ray:
-            _run_ray(fn, items, workers, done)
+            _run_ray(fn, items, workers, done, desc)
         elif workers == 1:
             one_thread()
             for i, item in enumerate(items):
@@ -114,27 +116,47 @@ def run_items(fn, items: list, workers: int = 1, use_ray: bool = False, on_resul
                 done(i, r, {"host": socket.gethostname(), "pid": os.getpid(),
                             "seconds": round(time.perf_counter() - t0, 3)})
         else:
-            _run_pool(fn, items, workers, done)
+            _run_pool(fn, items, workers, done, desc)
     finally:
         bar.close()
     return results
 
 
-def _run_pool(fn, items, workers, done) -> None:
+def worker_died(where: str, desc: str, finished: int, total: int, cause: str) -> DomainError:
+    """The one-line error of a worker that died mid-run: how many items finished (and were kept by
+    on_result) and that a rerun plays the rest."""
+    return DomainError(where, f"a worker process died ({cause}); {finished} of the {total} {desc} finished and "
+                              "were kept: rerun the command to play the rest")
+
+
+def _run_pool(fn, items, workers, done, desc: str = "items") -> None:
     import multiprocessing as mp
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
 
     ctx = mp.get_context("spawn")          # no fork of a parent holding torch or a thread pool
     with ProcessPoolExecutor(max_workers=min(workers, len(items)), mp_context=ctx, initializer=_worker_init,
                              initargs=(os.getcwd(),)) as pool:
-        futures = {pool.submit(_call, fn, item): i for i, item in enumerate(items)}
+        futures: dict = {}
+        taken: set = set()
         try:
+            for i, item in enumerate(items):
+                futures[pool.submit(_call, fn, item)] = i
             pending = set(futures)
             while pending:
                 finished, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for f in finished:
+                for f in sorted(finished, key=futures.get):
                     result, meta = f.result()
+                    taken.add(f)
                     done(futures[f], result, meta)
+        except BrokenProcessPool:
+            # Every item still running failed with the dead worker; those that finished before are kept.
+            for f in sorted(futures, key=futures.get):
+                if f not in taken and f.done() and not f.cancelled() and f.exception() is None:
+                    taken.add(f)
+                    done(futures[f], *f.result())
+            raise worker_died(f"--workers {workers}", desc, len(taken), len(items),
+                              "killed, or out of memory") from None
         except BaseException:
             for f in futures:
                 f.cancel()
@@ -165,24 +187,38 @@ def ray_init(workers: int = 1) -> bool:
     return True
 
 
-def _run_ray(fn, items, workers, done) -> None:
+def _run_ray(fn, items, workers, done, desc: str = "items") -> None:
     import ray
 
     started = ray_init(workers)
+    died = tuple(getattr(ray.exceptions, name) for name in ("WorkerCrashedError", "NodeDiedError",
+                                                            "OutOfMemoryError", "LocalRayletDiedError")
+                 if hasattr(ray.exceptions, name))
     try:
         task = ray.remote(num_cpus=1, max_retries=0)(_call)
         cwd = os.getcwd()
         refs = {task.remote(fn, item, cwd): i for i, item in enumerate(items)}
         pending = list(refs)
+        finished = 0
         try:
             while pending:
                 ready, pending = ray.wait(pending, num_returns=1)
                 try:
                     result, meta = ray.get(ready[0])
+                except died as e:
+                    ready, pending = ray.wait(pending, num_returns=len(pending), timeout=0) if pending else ([], [])
+                    for ref in ready:                  # those done meanwhile are kept too
+                        try:
+                            done(refs[ref], *ray.get(ref))
+                            finished += 1
+                        except ray.exceptions.RayError:
+                            pass
+                    raise worker_died("--ray", desc, finished, len(items), type(e).__name__) from None
                 except ray.exceptions.RayTaskError as e:
                     cause = getattr(e, "cause", None)
                     raise (cause if isinstance(cause, BaseException) else e) from None
                 done(refs[ready[0]], result, meta)
+                finished += 1
         except BaseException:
             for ref in pending:
                 ray.cancel(ref, force=True)

@@ -93,15 +93,13 @@ def compile_tasks(src, grounder) -> list:
     """[(TaskSpec, [GroundVariant])] for every instance of every task type."""
     where = src.folder / "domain.toml"
     table = src.config.get("tasks", {})
+    if not isinstance(table, dict):
+        raise DomainError(where, f"tasks is {table!r}, not a table of [tasks.<type>] tables")
     for name in src.task_schemas:
         if name not in table:
             raise DomainError(src.tasks_file, f"task type '{name}' has no [tasks.{name}] in domain.toml")
     for ttype, entry in table.items():
-        if not isinstance(entry, dict):
-            raise DomainError(where, f"[tasks.{ttype}] is not a table")
-        if "probability" not in entry:
-            raise DomainError(where, f"task {ttype}: no probability")
-        probability(entry["probability"], where, f"task {ttype}: probability")
+        check_entry(ttype, entry, where)
     total = sum(float(t["probability"]) for t in table.values())
     if abs(total - 1.0) > 1e-9:
         raise DomainError(where, f"task type probabilities sum to {total:g}, not 1")
@@ -125,6 +123,36 @@ def compile_tasks(src, grounder) -> list:
             variants = grounder.ground_schema(schema, dict(zip(params, args)))
             out.append((spec, variants))
     return out
+
+
+TASK_KEYS = ("probability", "arguments")
+"""The keys of a [tasks.<type>] table."""
+
+
+def check_entry(ttype: str, entry, where) -> None:
+    """A one-line error unless [tasks.<type>] is a table of known keys, each of its type: a probability
+    (a number in [0, 1]) and arguments (a table: parameter -> a list of objects, a table of object
+    probabilities, or "all"); checked before any of it is used, so a typo is never a traceback."""
+    if not isinstance(entry, dict):
+        raise DomainError(where, f"[tasks.{ttype}] is {entry!r}, not a table")
+    unknown = [k for k in entry if k not in TASK_KEYS]
+    if unknown:
+        raise DomainError(where, f"task {ttype}: unknown key '{unknown[0]}' (a [tasks.<type>] table has "
+                                 f"{' and '.join(TASK_KEYS)})")
+    if "probability" not in entry:
+        raise DomainError(where, f"task {ttype}: no probability")
+    probability(entry["probability"], where, f"task {ttype}: probability")
+    arguments = entry.get("arguments", {})
+    if not isinstance(arguments, dict):
+        raise DomainError(where, f"task {ttype}: arguments is {arguments!r}, not a table like "
+                                 '{ "?l" = ["servingtable"] }')
+    for pname, value in arguments.items():
+        if isinstance(value, list):
+            bad = [o for o in value if not isinstance(o, str)]
+            if bad:
+                raise DomainError(where, f"task {ttype}: {pname} lists {bad[0]!r}, not an object name")
+        if isinstance(value, (list, dict)) and not value:
+            raise DomainError(where, f"task {ttype}: {pname} names no object")
 
 
 def _argument_domain(ttype, pname, value, sort, grounder, where) -> list[tuple[str, float]]:
