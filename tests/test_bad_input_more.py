@@ -418,9 +418,12 @@ def test_a_dead_worker_is_one_line_and_the_finished_items_are_kept():
 
 
 @pytest.mark.slow
-def test_a_dead_ray_worker_is_one_line():
+def test_a_dead_ray_worker_is_one_line(monkeypatch):
     pytest.importorskip("ray")
     from planning.parallel import run_items
+
+    here = str(Path(__file__).parent)                 # Ray's workers import this module by name
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(filter(None, [here, os.environ.get("PYTHONPATH")])))
 
     with pytest.raises(DomainError) as e:
         run_items(die_on_two, [0, 1, 2, 3], workers=2, use_ray=True, progress=False)
