@@ -9,7 +9,8 @@ Every results file, checkpoint, dataset and cache records `identity(model)`:
 so that a file made from other domain content is recognised, and the error can say
 which file changed. The files are those a layout is compiled from: `domain.pddl`,
 `tasks.pddl`, the layout's problem and `domain.toml` (as parsed TOML, so a comment or
-a reformatting changes nothing); another layout's problem file is not part of it. The
+a reformatting changes nothing, less the tool settings of `SETTINGS_TABLES`); another
+layout's problem file is not part of it. The
 canonical sequences are checked task by task where they are used.
 """
 from __future__ import annotations
@@ -30,6 +31,12 @@ def _digest(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
+SETTINGS_TABLES = ("training", "search")
+"""domain.toml tables that configure a tool rather than define the world: the learner's and the
+search's defaults. Runs record the values they used in their own configuration, so these tables
+are left out of the digest (an edit of them does not make every result and cache stale)."""
+
+
 @lru_cache(maxsize=32)
 def _digests(files: tuple, stamp: tuple) -> tuple[str, dict]:
     parts = {}
@@ -37,7 +44,8 @@ def _digests(files: tuple, stamp: tuple) -> tuple[str, dict]:
         path = Path(path)
         data = path.read_bytes()
         if path.suffix == ".toml":          # its content, not its layout: a comment changes nothing
-            data = json.dumps(tomllib.loads(data.decode()), sort_keys=True, default=str).encode()
+            table = {k: v for k, v in tomllib.loads(data.decode()).items() if k not in SETTINGS_TABLES}
+            data = json.dumps(table, sort_keys=True, default=str).encode()
         parts[path.name] = _digest(data)
     whole = _digest("\n".join(f"{n} {d}" for n, d in sorted(parts.items())).encode())
     return whole, {n: d[:FILE_DIGITS] for n, d in sorted(parts.items())}

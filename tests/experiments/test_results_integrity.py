@@ -188,3 +188,22 @@ def test_provenance_says_which_run_played_each_sequence(two_room, tmp_path, monk
     prov = both["provenance"]
     assert prov["played_in_this_process"] == [1]
     assert prov["sequences"]["0"]["commit"] == "earlier" and prov["sequences"]["1"]["commit"] == prov["commit"]
+
+
+def test_the_digest_follows_the_world_not_comments_or_tool_settings(copy_of_restaurant):
+    from planning.domain.identity import identity
+
+    def digest():
+        return identity(compile_domain(copy_of_restaurant, "two-room"))
+
+    first = digest()
+    toml = copy_of_restaurant / "domain.toml"
+    toml.write_text("# a comment\n" + toml.read_text().replace("depth_cap = 20", "depth_cap = 30"))
+    assert digest() == first                    # a comment and a [search] default: the same world
+    (copy_of_restaurant / "three-room.pddl").write_text("; another layout's problem is not part of two-room\n")
+    assert digest() == first
+    toml.write_text(toml.read_text().replace("[tasks.wash]\nprobability = 0.30", "[tasks.wash]\nprobability = 0.31"))
+    changed = digest()
+    assert changed["domain_sha256"] != first["domain_sha256"]
+    assert [n for n in changed["domain_files"] if changed["domain_files"][n] != first["domain_files"][n]] == \
+        ["domain.toml"]

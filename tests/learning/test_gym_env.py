@@ -38,7 +38,7 @@ def test_any_domain_folder_by_path(tmp_path):
     shutil.copytree(ROOT / "domains" / "minimal", folder)
     env = gym.make("Anticipatory-v0", domain=str(folder), layout="grid").unwrapped
     obs, info = env.reset(seed=3)
-    assert env.model.name == "my-grid" and obs.shape == env.observation_space.shape
+    assert env.model.name == "minimal" and obs.shape == env.observation_space.shape
     assert info["task"] == "clear(c)"
 
 
