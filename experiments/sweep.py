@@ -9,8 +9,9 @@ seeds × any other training setting given as a list (`--gamma 0.95,0.97`; every
 work item: it trains in RUNS/<domain>-<layout>-<horizon>-seed<seed>[-<setting><value>...]
 (resuming from its last.pt, as `learning.dqn` does) and its outcome (steps, tasks, best greedy
 evaluation, last metrics row) goes to OUT.parts/<run>.json, with its provenance, as soon as
-it ends; a part of the same settings is reused on a rerun (delete it to train again). On a
-multi-node cluster RUNS must be on a shared filesystem, since the runs write there.
+it ends; a part of the same settings is reused on a rerun (delete it to train again). Every
+point's settings, and every file name made of them, are checked before anything is written.
+On a multi-node cluster RUNS must be on a shared filesystem, since the runs write there.
 With --deploy, a finished run is also exported (`learning.export`: the float16 checkpoint
 CHECKPOINTS/rl-<horizon>-<layout>-seed<seed>[-<setting><value>...].pt and RESULTS/training-....json)
 and evaluated greedily on the canonical sequences (`rl-greedy`, RESULTS/rl-greedy-....json):
@@ -97,27 +98,26 @@ def _field_kind(f) -> type:
 
 
 # ---- training runs -------------------------------------------------------------------------
-def train_item(item: dict) -> dict:
-    """One learning.dqn run to the end (resumed from its last.pt if there is one); its outcome."""
-    from learning.dqn import Config, Trainer, domain_defaults
+def item_config(item: dict):
+    """A training item's settings, built and checked as learning.dqn builds its own (`learning.dqn.make_config`)."""
+    from learning.dqn import make_config
 
-    model = compile_domain(item["domain"], item["layout"])
-    values = {**domain_defaults(model, item["horizon"]), **item["settings"]}
-    cfg = Config(domain=item["domain"], layout=model.layout, horizon=item["horizon"], seed=item["seed"],
-                 out=item["out"], **values)
-    trainer = Trainer(cfg, progress=False)
-    last = trainer.out / "last.pt"
-    if last.is_file():
-        trainer.resume(last)
-    trainer.train()
-    rows = [json.loads(line) for line in trainer.metrics.read_text().splitlines() if line.strip()] \
-        if trainer.metrics.is_file() else []
-    last_row = next((r for r in reversed(rows) if "eval" not in r), {})
+    return make_config(item["domain"], item["layout"], item["horizon"], seed=item["seed"], out=item["out"],
+                       **item["settings"])
+
+
+def train_item(item: dict) -> dict:
+    """One learning.dqn run to the end, started or resumed as learning.dqn does (`learning.dqn.train_run`:
+    the run folder locked, metrics rows past the resumed checkpoint dropped); its outcome."""
+    from learning.dqn import last_row, train_run
+
+    cfg = item_config(item)
+    trainer = train_run(cfg, progress=False)
     out = {"run": item["out"], "config": dataclasses.asdict(cfg), "steps": trainer.step,
            "tasks": trainer.tasks_done, "best": trainer.best,
-           "last": {k: v for k, v in last_row.items() if k not in TIMING_KEYS}}
+           "last": {k: v for k, v in last_row(trainer.metrics).items() if k not in TIMING_KEYS}}
     if item.get("deploy"):
-        out["deployed"] = deploy(model, Path(item["out"]), item["deploy"])
+        out["deployed"] = deploy(trainer.model, Path(item["out"]), item["deploy"])
     return out
 
 
@@ -126,21 +126,23 @@ def deploy(model, run: Path, paths: dict) -> dict:
     sequences; the greedy figures and where everything went."""
     from learning.export import export
 
-    export(run, Path(paths["checkpoint"]), Path(paths["figures"]))
+    export(run, Path(paths["checkpoint"]), Path(paths["figures"]), force=paths.get("force", False))
     agent = agent_class("rl-greedy").from_args(argparse.Namespace(checkpoint=paths["checkpoint"]), model)
     r = evaluate(model, agent, paths["sequences"], paths["greedy"], progress=False, reference=reference_path(model))
     return {**paths, **{k: r[k] for k in ("cost_per_task", "success_rate", "actions_per_task", "improvement_vs_myopic")}}
 
 
-def train_sweep(args, grid: dict, settings: dict, out: Path) -> dict:
-    """Every point of `grid` (axis -> values) as a training run; the merged outcome."""
-    from learning.dqn import run_name
+def train_items(args, grid: dict, settings: dict) -> tuple[list, list, list]:
+    """(points, run names, work items) of a training grid, every point's settings checked as learning.dqn
+    checks its own and every name made from them checked to name a file in its folder: a bad value
+    (`--eps-schedule ../../x`) stops with a one-line error before anything is written."""
+    from learning.dqn import file_in, file_name, run_name
     from learning.export import rl_name
 
     axes = list(grid)
     points = [dict(zip(axes, combo)) for combo in itertools.product(*grid.values())]
     varied = [a for a in axes if a not in GRID and len(grid[a]) > 1]
-    domain_name = Path(args.domain).resolve().name
+    domain_name = file_name(Path(args.domain).resolve().name, "--domain", "folder name")
     items, names = [], []
     for p in points:
         # a run with a target bound keeps its files apart under learning.dqn's own suffix
@@ -149,13 +151,24 @@ def train_sweep(args, grid: dict, settings: dict, out: Path) -> dict:
         items.append({"domain": args.domain, "layout": p["layout"], "horizon": p["horizon"], "seed": p["seed"],
                       "settings": {**settings, **{a: p[a] for a in axes if a not in GRID}},
                       "out": str(Path(args.runs) / name)})
+        item_config(items[-1])                                    # a setting no run can have
+        for axis in grid:
+            file_name(p[axis], f"--{axis.replace('_', '-')}", "value")
+        file_in(args.runs, name, "--runs", "a run folder's name")
         if args.deploy:
             short = rl_name({**settings, **p}, extra)
             items[-1]["deploy"] = {"checkpoint": f"{args.checkpoints}/rl-{short}.pt",
                                    "figures": f"{args.results}/training-{short}.json",
                                    "greedy": f"{args.results}/rl-greedy-{short}.json",
-                                   "sequences": cli.parse_ids(args.sequences)}
+                                   "sequences": cli.parse_ids(args.sequences),
+                                   **({"force": True} if args.force else {})}
         names.append(name)
+    return points, names, items
+
+
+def train_sweep(args, grid: dict, settings: dict, plan: tuple, out: Path) -> dict:
+    """Every point of `grid` (axis -> values) as a training run, `plan` its `train_items`; the merged outcome."""
+    points, names, items = plan
     parts = Path(f"{out}.parts")
     results: dict = {}
     todo = []
@@ -185,8 +198,8 @@ def train_sweep(args, grid: dict, settings: dict, out: Path) -> dict:
                      "last": r["result"]["last"], "seconds": r["provenance"].get("seconds")})
         if "deployed" in r["result"]:
             rows[-1]["greedy"] = r["result"]["deployed"]
-    return {"kind": "train", "domain": domain_name, "grid": grid, "settings": settings, "points": rows,
-            "items_run": len(todo), "items_reused": len(items) - len(todo)}, wall
+    return {"kind": "train", "domain": Path(args.domain).resolve().name, "grid": grid, "settings": settings,
+            "points": rows, "items_run": len(todo), "items_reused": len(items) - len(todo)}, wall
 
 
 def _load_part(path: Path) -> dict | None:
@@ -227,14 +240,15 @@ def guided_sweep(args, layout: str, out: Path) -> tuple[dict, float]:
 
 def main() -> None:
     one_thread()                  # as in the workers: a serial sweep computes what a parallel one does
-    from learning.dqn import Config
+    from learning.dqn import Config, file_in, file_name
 
     p = cli.parser(__doc__.splitlines()[0], sequences=True)
     p.add_argument("--kind", choices=("train", "guided"), default="train", help="what to sweep (default: %(default)s)")
     p.add_argument("--workers", type=int, default=1, help="local processes (default: 1, serially here)")
     p.add_argument("--ray", action="store_true", help="Ray tasks: a local instance, or the cluster at RAY_ADDRESS")
     p.add_argument("--no-progress", action="store_true")
-    p.add_argument("--force", action="store_true", help="guided: replace results files made otherwise")
+    p.add_argument("--force", action="store_true", help="replace results files made otherwise (guided), exported "
+                                                        "checkpoints and figures of other runs (train --deploy)")
     train = p.add_argument_group("--kind train (a comma list or range makes an axis of the grid)")
     train.add_argument("--horizon", default="myopic,anticipatory", help="(default: %(default)s)")
     train.add_argument("--runs", default="runs/sweep", help="folder of the run folders (default: %(default)s)")
@@ -291,8 +305,11 @@ def main() -> None:
         for h in grid["horizon"]:
             if h not in ("myopic", "anticipatory"):
                 raise DomainError("--horizon", f"'{h}' is neither myopic nor anticipatory")
-        out = Path(args.out or f"results/sweeps/{summary_name(models[0].name, grid)}.json")
-        result, wall = train_sweep(args, grid, settings, out)
+        plan = train_items(args, grid, settings)                 # nothing is written before this
+        domain = file_name(models[0].name, models[0].files["domain"], "domain name")
+        out = Path(args.out or file_in("results/sweeps", f"{summary_name(domain, grid)}.json", "--out",
+                                       "the default summary's name"))
+        result, wall = train_sweep(args, grid, settings, plan, out)
     item_seconds = sum(pt.get("seconds") or 0 for pt in result["points"]) if args.kind == "train" else None
     result.update(wall_seconds=round(wall, 2), ran=describe(args.workers, args.ray), provenance=provenance())
     if item_seconds is not None:

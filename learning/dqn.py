@@ -18,6 +18,10 @@ domain, a value there may be keyed by layout and then by horizon.
 
 Writes DIR/metrics.jsonl, DIR/last.pt (everything, for resuming: rerun the same
 command) and DIR/best.pt (the network with the best greedy evaluation on 100 tasks).
+The run folder is locked while it trains: a second trainer of the same DIR (another
+`learning.dqn`, a sweep's item) stops with a one-line error, and `learning.export`
+refuses the run until it ends. `train_run` is the one way a run starts or resumes,
+for this command and for `experiments.sweep` alike.
 """
 from __future__ import annotations
 
@@ -26,6 +30,7 @@ import ctypes
 import json
 import math
 import random
+import re
 import sys
 import time
 from collections import deque
@@ -39,14 +44,15 @@ from tqdm import tqdm
 
 from learning.reward import cost_scale, goal_reward, step_reward
 from planning import cli
-from planning.atomic import write_text
+from planning.atomic import OutputLock, write_text
 from planning.domain.compiler import compile_domain
+from planning.domain.identity import identity
 from planning.errors import DomainError
 from planning.world.task_stream import PersistentWorld, TaskStream
 
 from .encoding import Encoding
 from .qnet import (COMPLETE, CONTINUE, TERMINAL, BoundaryCache, LiveGreedy, SlotCache, ValueFunction,
-                   build_network, network_payload, read_checkpoint, save_checkpoint, td_targets)
+                   build_network, check_domain, network_payload, read_checkpoint, save_checkpoint, td_targets)
 from .optim import FlatAdam
 from .replay import Replay, mixed_batch
 
@@ -131,6 +137,30 @@ CHOICES = {"eps_schedule": ("time-constant", "reach"), "explore": ("factored", "
            "target_bound": ("none", "return")}
 LEGACY = {"eps_schedule": "reach", "explore": "uniform", "demo_planner": "internal", "target_bound": "none"}
 """What a checkpoint written before these settings existed was trained with."""
+
+
+NAME = re.compile(r"[A-Za-z0-9_+-][A-Za-z0-9._+-]*")
+"""What may name an output file or folder: letters, digits, '.', '_', '+', '-', not starting with a dot
+(so never '..', never a hidden file, never a path)."""
+
+
+def file_name(value, where, field: str) -> str:
+    """`value` as a part of an output's name, or a one-line DomainError naming `where` (the file or option the
+    value came from) and `field`: whatever a file read or an option contains, no output path leaves its folder."""
+    text = str(value)
+    if not NAME.fullmatch(text):
+        raise DomainError(where, f"{field} {text!r} cannot name an output (letters, digits, '.', '_', '+', '-'; "
+                                 "not starting with a dot)")
+    return text
+
+
+def file_in(folder, name: str, where, field: str) -> Path:
+    """folder/name for an output whose name was built from values read (`file_name` for each), checked to
+    stay inside `folder`."""
+    path = Path(folder) / name
+    if not NAME.fullmatch(name) or path.parent.resolve() != Path(folder).resolve():
+        raise DomainError(where, f"{field} makes {str(path)!r}, a path outside {folder}")
+    return path
 
 
 def bound_suffix(cfg) -> str:
@@ -276,17 +306,13 @@ class Trainer:
 
     def __init__(self, cfg: Config, progress: bool = True):
         # -- setup: model, encodings, R_goal, seeding --------------------------------------------
-        if cfg.horizon not in HORIZONS:
-            raise DomainError("--horizon", f"'{cfg.horizon}' is neither myopic nor anticipatory")
-        for key, allowed in CHOICES.items():
-            if getattr(cfg, key) not in allowed:
-                raise DomainError(f"--{key.replace('_', '-')}", f"'{getattr(cfg, key)}' is not one of {', '.join(allowed)}")
+        check_config(cfg)
         torch.set_num_threads(1)            # 2 cores shared by several engineers
         keep_freed_memory()
         self.cfg, self.progress = cfg, progress
         self.model = model = compile_domain(cfg.domain, cfg.layout)
         cfg.layout = model.layout
-        self.out = Path(cfg.out or Path("runs/dqn") / run_name(model.name, cfg))
+        self.out = run_folder(cfg, model)
         cli.check_writable(self.out, folder=True)     # before the demonstrations are planned
         cfg.out = str(self.out)
         self.scale = cost_scale(model)
@@ -303,6 +329,7 @@ class Trainer:
         self.rng = np.random.default_rng(cfg.seed)
         self.enc = Encoding(model)
         self.type_of = self.enc.action_type
+        self.identity = identity(model)        # the domain as it was when the run started, in every checkpoint
 
         # -- Algorithm 1, line 1: replay memory, online and target networks ---------------------
         self.net = build_network(self.enc, cfg.hidden)
@@ -506,13 +533,14 @@ class Trainer:
         if self.best is None or score > tuple(self.best["score"]):
             self.best = {"score": list(score), "step": self.step, "eval": r}
             save_checkpoint(self.out / "best.pt", network_payload(
-                self.net, self.enc, {"step": self.step, "eval": r, "config": asdict(self.cfg)}))
+                self.net, self.enc, {**self.identity, "step": self.step, "eval": r, "config": asdict(self.cfg)}))
 
     def save(self) -> Path:
         """Everything needed to resume, atomically, in last.pt."""
         w = self.world
         payload = network_payload(self.net, self.enc, {
-            "config": asdict(self.cfg), "target": self.target.state_dict(), "opt": self.opt.state_dict(),
+            **self.identity, "config": asdict(self.cfg),
+            "target": self.target.state_dict(), "opt": self.opt.state_dict(),
             "step": self.step, "tasks_done": self.tasks_done, "recent": list(self.recent),
             "best": self.best, "task_return": self.task_return, "task_k": self.task_k,
             "memory": self.memory.state_dict(), "rng": self.rng.bit_generator.state,
@@ -533,6 +561,7 @@ class Trainer:
             if was != getattr(self.cfg, key):
                 hint = f" (pass --{key.replace('_', '-')} {was} to continue it)" if key in ("goal_reward", *LEGACY) else ""
                 raise DomainError(path, f"was trained with {key}={was!r}, not {getattr(self.cfg, key)!r}{hint}")
+        check_domain(path, p, self.model)
         if p["signature"] != self.enc.signature():
             raise DomainError(path, "was trained on a different compilation of this layout")
         self.net.load_state_dict(p["net"])
@@ -597,37 +626,91 @@ def read_metrics(path, strict: bool = True) -> tuple[list[dict], bool]:
     return rows, False
 
 
-def make_config(args) -> Config:
-    """Config from Table A.2, then domain.toml [training], then the command line."""
-    model = compile_domain(args.domain or Config.domain, args.layout)
-    values = {**domain_defaults(model, args.horizon)}
-    for f in fields(Config):
-        v = getattr(args, f.name, None)
-        if v is not None:
-            values[f.name] = v
-    values["layout"] = model.layout
-    return Config(**values)
+def last_row(path) -> dict:
+    """The last log row (not an evaluation) of a run's metrics.jsonl; {} if it logged none."""
+    rows = read_metrics(path)[0] if Path(path).is_file() else []
+    return next((r for r in reversed(rows) if "eval" not in r), {})
+
+
+def check_config(cfg: Config) -> None:
+    """A one-line DomainError for a setting no run can have, before anything is planned or written."""
+    if cfg.horizon not in HORIZONS:
+        raise DomainError("--horizon", f"'{cfg.horizon}' is neither myopic nor anticipatory")
+    for key, allowed in CHOICES.items():
+        if getattr(cfg, key) not in allowed:
+            raise DomainError(f"--{key.replace('_', '-')}", f"'{getattr(cfg, key)}' is not one of {', '.join(allowed)}")
+
+
+def make_config(domain: str | None = None, layout: str | None = None, horizon: str = "anticipatory",
+                **given) -> Config:
+    """A run's settings: Table A.2, then domain.toml [training] (keyed by layout and horizon), then `given`
+    (a None value counts as not given), checked; learning.dqn's command line and a sweep's items alike."""
+    domain = domain or Config.domain
+    if horizon not in HORIZONS:
+        raise DomainError("--horizon", f"'{horizon}' is neither myopic nor anticipatory")
+    model = compile_domain(domain, layout)
+    values = {**domain_defaults(model, horizon), **{k: v for k, v in given.items() if v is not None}}
+    cfg = Config(**{**values, "domain": domain, "layout": model.layout, "horizon": horizon})
+    check_config(cfg)
+    return cfg
+
+
+def run_folder(cfg: Config, model) -> Path:
+    """The run's folder: cfg.out, else runs/dqn/<domain>-<layout>-<horizon>-seed<N>[-bound-<bound>] with each part
+    checked to name a folder (a layout named '../x' in domain.toml writes nowhere else)."""
+    if cfg.out:
+        return Path(cfg.out)
+    file_name(model.name, model.files["domain"], "domain name")
+    file_name(model.layout, model.files["config"], "layout")
+    file_name(cfg.seed, "--seed", "seed")
+    return file_in("runs/dqn", run_name(model.name, {**asdict(cfg), "layout": model.layout}), "--out",
+                   "the default run folder")
+
+
+def train_run(cfg: Config, fresh: bool = False, progress: bool = True) -> Trainer:
+    """Train the run of `cfg` to cfg.steps, resuming it where it stopped: the one way a run starts or goes
+    on (learning.dqn, experiments.sweep's items). Returns the trainer, its run ended.
+
+    The run folder is locked (`planning.atomic.OutputLock`) before anything is written in it and until
+    training ends: a second trainer of it stops at once with a one-line error instead of appending every
+    metrics row twice. A run with a last.pt continues from it (not with `fresh`), the metrics rows logged
+    after that checkpoint dropped (they are logged again); a run without one starts over, and what an
+    earlier start left (its metrics rows, best.pt, last.pt) is deleted, so metrics.jsonl never holds a
+    step twice (a run killed after its first rows but before its first checkpoint read 100, 200, 100, ...).
+    """
+    check_config(cfg)
+    out = run_folder(cfg, compile_domain(cfg.domain, cfg.layout))
+    cli.check_writable(out, folder=True)
+    out.mkdir(parents=True, exist_ok=True)      # the lock lives inside the folder: made before it is taken
+    with OutputLock(out, "training run"):
+        trainer = Trainer(cfg, progress=progress)
+        last = trainer.out / "last.pt"
+        if last.is_file() and not fresh:
+            trainer.resume(last)
+            print(f"resumed {last} at step {trainer.step}", file=sys.stderr)
+        else:
+            stale = [p for p in (trainer.metrics, trainer.out / "best.pt", last) if p.is_file()]
+            if stale and not fresh:
+                names = ", ".join(p.name for p in stale)
+                print(f"{trainer.out}: no last.pt to resume from; the run starts over ({names} of its earlier "
+                      "start dropped)", file=sys.stderr)
+            for p in stale:
+                p.unlink()
+        trainer.train()
+    return trainer
 
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     cli.add_dataclass_options(p, Config, skip=("horizon",))
     p.add_argument("--horizon", required=True, choices=HORIZONS, help=cli.field_docs(Config)["horizon"])
-    p.add_argument("--fresh", action="store_true", help="ignore an existing last.pt and start over")
+    p.add_argument("--fresh", action="store_true", help="ignore an existing last.pt and start over (the run's "
+                                                        "metrics.jsonl, best.pt and last.pt are replaced)")
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args()
-    cfg = make_config(args)
-    trainer = Trainer(cfg, progress=not args.no_progress)
-    last = trainer.out / "last.pt"
-    if last.is_file() and not args.fresh:
-        trainer.resume(last)
-        print(f"resumed {last} at step {trainer.step}", file=sys.stderr)
-    elif trainer.metrics.is_file():          # --fresh, or a run stopped before its first checkpoint
-        trainer.metrics.unlink()
-        if not args.fresh:
-            print(f"{trainer.metrics}: no last.pt to resume from; its rows are dropped and the run "
-                  "starts over", file=sys.stderr)
-    row = trainer.train()
+    cfg = make_config(**{f.name: getattr(args, f.name) for f in fields(Config)})
+    trainer = train_run(cfg, fresh=args.fresh, progress=not args.no_progress)
+    row = last_row(trainer.metrics)
     best = trainer.best or {}
     print(f"{cfg.horizon} {cfg.layout} seed {cfg.seed}: step {trainer.step}, success (last 100) "
           f"{row.get('success_rate', float('nan')):.3f}, task return {row.get('task_return', float('nan')):.2f}, "

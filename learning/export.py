@@ -31,27 +31,42 @@
   meta.json: the settings it was built with, its states per kind (faithful, prepared), the
   exact C_AP labels' spread, and what labelling them cost. Default:
   results/dataset-gnn-<faithful|augmented>-<layout>.json; there is no checkpoint.
+
+Exporting never loses what is committed. Everything is read, computed and checked before
+anything is written (a run without its metrics.jsonl leaves the committed checkpoint as it
+was). A checkpoint or figures file already at the output is replaced only by the export of
+the same run (its domain and every training setting alike, the run folder and the step
+count among them: a run that trained on since is updated) and is kept byte for byte when it
+is already this export (the sha256 that results files record of it still holds); another
+run's, or a file that is no export, is a one-line error naming the file and what differs,
+unless --force. The default names are made of values read from the run's files (its
+settings' horizon, layout and seed, a GNN's layout, a dataset's layout), each checked to
+name a file in its folder. A run still being trained is refused: its trainer holds the run
+folder's lock (`learning.dqn.train_run`), and the export holds it in turn, so no trainer
+starts on the run mid-export. A run stopped before its configured step count is exported
+as it is, with a one-line note on stderr.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import sys
 from collections import Counter
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
-
 from planning import cli
-from planning.atomic import sha256, write_json
+from planning.atomic import OutputLock, sha256, write_json
+from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 from planning.world.runner import results_provenance
 
-from planning.domain.compiler import compile_domain
-
+from learning.dqn import LEGACY, Config, bound_suffix, file_in, file_name, read_metrics
 from learning.plain import full_precision, to_half
-from learning.dqn import LEGACY, Config, bound_suffix, read_metrics
-from learning.qnet import read_checkpoint, save_checkpoint, value_function
+from learning.qnet import DOMAIN_KEYS, read_checkpoint, save_checkpoint, value_function
 
 MILESTONES = (50_000, 100_000, 250_000, 500_000)
 PRECISION = "float16"
@@ -64,7 +79,7 @@ CURVE_KEYS = ("success_rate", "task_return", "selected_q", "td_target")      # F
 def compact(payload: dict, source: str | None = None, half: bool = True) -> dict:
     """The agent-facing part of a Q-network checkpoint, float tensors in float16 (`read_checkpoint` casts them
     back); `half=False` keeps them in float32."""
-    keep = {k: payload[k] for k in ("dims", "signature", "step", "eval", "config") if k in payload}
+    keep = {k: payload[k] for k in ("dims", "signature", *DOMAIN_KEYS, "step", "eval", "config") if k in payload}
     net, precision = (to_half(payload["net"]), PRECISION) if half else (payload["net"], "float32")
     return {**keep, "net": net, "precision": precision, **({"source_sha256": source} if source else {})}
 
@@ -119,9 +134,10 @@ def key_figures(logs: list[dict], evals: list[dict], refill: str = "refill-water
         cumulative[r["step"]] = round(done / r["step"], 5) if r["step"] else 0.0
     at = {}
     for m in MILESTONES:
-        if m > last:
+        before = [r for r in logs if r["step"] <= m]
+        if m > last or not before:
             continue
-        row = max((r for r in logs if r["step"] <= m), key=lambda r: r["step"])
+        row = max(before, key=lambda r: r["step"])
         ev = [e for e in evals if e["step"] <= m]
         at[str(m)] = {"step": row["step"], "success_last_100": row["success_rate"],
                       "selected_q": round(row["selected_q"], 3), "td_target": round(row["td_target"], 3),
@@ -198,21 +214,28 @@ def is_gnn_run(run: Path) -> bool:
 
 
 def default_names(run: Path, gnn: bool) -> tuple[str, str]:
-    """(checkpoint, figures) default paths of a run folder (`gnn`: a learning.gnn_train run)."""
+    """(checkpoint, figures) default paths of a run folder (`gnn`: a learning.gnn_train run), made of values its
+    best.pt records, each checked to name a file (a seed of '../x' writes nowhere else)."""
+    best = run / "best.pt"
     if gnn:
         from learning.gnn_model import read_gnn_checkpoint
 
-        p = read_gnn_checkpoint(run / "best.pt")
+        p = read_gnn_checkpoint(best)
         cfg = p.get("config", {})
         try:
             augmented = json.loads((Path(cfg.get("data", "")) / "meta.json").read_text())["config"]["augmented"]
         except (OSError, KeyError, TypeError, json.JSONDecodeError):
             raise DomainError(run, f"cannot tell the dataset variant from {cfg.get('data')}/meta.json; "
                                    "pass --out and --figures") from None
-        name = f"gnn-{'augmented' if augmented else 'faithful'}-{p.get('layout')}-seed{cfg.get('seed')}"
-        return f"checkpoints/{name}.pt", f"results/training-{name}.json"
-    name = rl_name(read_checkpoint(run / "best.pt").get("config", {}))
-    return f"checkpoints/rl-{name}.pt", f"results/training-{name}.json"
+        name = (f"gnn-{'augmented' if augmented else 'faithful'}-{file_name(p.get('layout'), best, 'layout')}"
+                f"-seed{file_name(cfg.get('seed'), best, 'config.seed')}")
+    else:
+        cfg = read_checkpoint(best).get("config", {})
+        for field in ("horizon", "layout", "seed", *(("target_bound",) if bound_suffix(cfg) else ())):
+            file_name(cfg.get(field), best, f"config.{field}")
+        name = f"rl-{rl_name(cfg)}"
+    return (str(file_in("checkpoints", f"{name}.pt", best, "its settings")),
+            str(file_in("results", f"training-{name.removeprefix('rl-')}.json", best, "its settings")))
 
 
 def rl_name(cfg: dict, varied: str = "") -> str:
@@ -222,39 +245,201 @@ def rl_name(cfg: dict, varied: str = "") -> str:
     return f"{cfg.get('horizon')}-{cfg.get('layout')}-seed{cfg.get('seed')}{varied}{bound_suffix(cfg)}"
 
 
-def export_gnn(run: Path, out: Path, figures: Path | None) -> tuple[dict, dict]:
-    """The compact GNN checkpoint and the run's summary.json (with where it came from)."""
+# ---- replacing what is there ----------------------------------------------------------------
+FIRST = ("out", "data", "steps", "epochs")        # what tells runs apart first: their folder, their length
+LABELS = {"out": "run folder", "data": "dataset"}
+OLD_FIGURE_KEYS = ("domain", "layout", "horizon", "seed", "gamma", *LEGACY)
+"""What a Q-learning run's figures written before 2026-12 record of its settings (at top level; 'domain'
+is its domain folder there, 'run' its run folder; their 'steps' is the last step logged, not a setting)."""
+
+
+def _norm(key: str, value):
+    return os.path.normpath(value) if key in ("out", "data") and isinstance(value, str) else value
+
+
+def config_difference(saved: dict, new: dict, keys=None) -> str | None:
+    """The first training setting in which two runs differ ('run folder ..., not ...'), or None: the run
+    folder (or a GNN's dataset) and the length first, then the others by name; a setting missing from a
+    file written before it existed counts as what such runs had (LEGACY). `keys`: only those."""
+    keys = sorted(set(saved) | set(new) if keys is None else keys,
+                  key=lambda k: (FIRST.index(k) if k in FIRST else len(FIRST), k))
+    for key in keys:
+        a, b = (_norm(key, d.get(key, LEGACY.get(key))) for d in (saved, new))
+        if a != b:
+            return f"{LABELS.get(key, key)} {a!r}, not {b!r}"
+    return None
+
+
+def run_difference(saved: dict, new: dict, keys=None) -> str | None:
+    """How the run a saved export (a compact checkpoint, a figures file) was made from differs from this one:
+    its domain (its name; its content where both record a digest), its layout, then its settings
+    (`config_difference`); None for the same run."""
+    for key in ("domain", "layout"):
+        a, b = saved.get(key), new.get(key)
+        if a is not None and b is not None and a != b:
+            return f"{key} {a!r}, not {b!r}"
+    a, b = saved.get("domain_sha256"), new.get("domain_sha256")
+    if a and b and a != b:
+        old, mine = saved.get("domain_files") or {}, new.get("domain_files") or {}
+        changed = sorted(n for n in set(old) | set(mine) if old.get(n) != mine.get(n))
+        return f"other content of domain {new.get('domain')!r} (changed: {', '.join(changed) or 'unknown files'})"
+    return config_difference(saved.get("config") or {}, new.get("config") or {}, keys)
+
+
+def figures_run(figs: dict) -> tuple[dict, list | None]:
+    """(what a key-figures file records of the run it describes, as `run_difference` compares it, the settings
+    it records where it records only some): a dataset's folder counts as its run folder; a Q-learning run's
+    figures from before 2026-12 kept some settings at top level (OLD_FIGURE_KEYS)."""
+    if isinstance(figs.get("dataset"), str):
+        return {**figs, "config": {**(figs.get("config") or {}), "out": figs["dataset"]}}, None
+    if "config" in figs:
+        return figs, None
+    old = {"out": figs.get("run"), **{k: figs[k] for k in OLD_FIGURE_KEYS if k in figs}}
+    return {"config": old}, sorted(old)
+
+
+def may_write(path: Path, new: dict, force: bool, read, what: str, option: str) -> bool:
+    """Whether to write `new` (a compact checkpoint, or key figures: `read` loads what is at `path` now) at
+    `path`: yes where nothing is there, or with `force`; yes for the same run's export of other content (the
+    run trained on); no where it is this very export already (a checkpoint of the same best.pt, figures equal
+    but for their provenance: the file is kept as it is); a one-line DomainError for another run's, or a
+    file that is no export. Checks only: nothing is written here."""
+    if not path.exists() or force:
+        return True
+    try:
+        saved = read(path)
+    except DomainError as e:
+        raise DomainError(path, f"is not a {what} this export would replace ({e.reason}); pass --force to "
+                                f"replace it, or {option} another file") from None
+    if not isinstance(saved, dict):
+        raise DomainError(path, f"is not a {what} this export would replace; pass --force to replace it, "
+                                f"or {option} another file")
+    if "source_sha256" in new:
+        diff = run_difference(saved, new)
+        same = saved.get("source_sha256") == new["source_sha256"]
+    else:
+        old, keys = figures_run(saved)
+        mine = figures_run(new)[0]
+        diff = run_difference(old, mine, keys)
+        same = _without_provenance(saved) == _without_provenance(json.loads(json.dumps(new)))
+    if diff is not None:
+        raise DomainError(path, f"the {what} of another run ({diff}); pass --force to replace it, "
+                                f"or {option} another file")
+    return not same
+
+
+def _without_provenance(figs: dict) -> dict:
+    return {k: v for k, v in figs.items() if k != "provenance"}
+
+
+def _read_json(path: Path) -> dict:
+    try:
+        return json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise DomainError(path, f"unreadable ({type(e).__name__})") from None
+
+
+@contextmanager
+def exporting(folder: Path, what: str = "run"):
+    """Held while a folder is exported: its OutputLock. A run still being trained (its trainer holds the
+    lock, `learning.dqn.train_run`) is refused with a one-line error, and no trainer starts on it
+    mid-export; a folder this process may not write in has no trainer there and is read unlocked."""
+    if not folder.is_dir():
+        raise DomainError(folder, f"no such {what} folder")
+    lock = OutputLock(folder, what)
+    try:
+        lock.__enter__()
+    except DomainError:
+        raise DomainError(folder, f"is still being written (a trainer holds the {what}); export it when it "
+                                  "ends") from None
+    except OSError:
+        lock = None
+    try:
+        yield
+    finally:
+        if lock is not None:
+            lock.__exit__(None, None, None)
+
+
+def unfinished(run: Path, payload: dict, logs: list, evals: list) -> str | None:
+    """'trained to step X of Y' for a run stopped before its configured step count (its last.pt's, else its
+    best.pt's), else None."""
+    done = max([r.get("step", 0) for r in logs] + [e.get("step", 0) for e in evals], default=0)
+    cfg = payload.get("config", {})
+    if (run / "last.pt").is_file():
+        try:
+            cfg = read_checkpoint(run / "last.pt").get("config", cfg)
+        except DomainError:
+            pass
+    steps = cfg.get("steps")
+    return f"trained to step {done:,} of {steps:,}" if isinstance(steps, int) and done < steps else None
+
+
+# ---- exports ---------------------------------------------------------------------------------
+def export_gnn(run: Path, out: Path, figures: Path | None, force: bool = False,
+               written: list | None = None) -> tuple[dict, dict]:
+    """The compact GNN checkpoint and the run's summary.json (with where it came from); everything checked
+    before anything is written (see the module's docstring). Returns (compact payload, figures); the files
+    written go on `written` (those already this export are kept as they are)."""
     from learning.gnn_model import read_gnn_checkpoint, save_gnn_checkpoint
 
-    best = run / "best.pt"
-    small = compact_gnn(read_gnn_checkpoint(best), sha256(best))
-    save_gnn_checkpoint(out, small)
-    try:
-        summary = json.loads((run / "summary.json").read_text())
-    except (OSError, json.JSONDecodeError) as e:
-        raise DomainError(run / "summary.json", f"cannot read the run's summary ({type(e).__name__})") from None
-    figs = {"run": str(run), "checkpoint": str(out), "checkpoint_epoch": small.get("epoch"), **summary}
-    if figures is not None:
-        write_json(figures, {**figs, "provenance": results_provenance(figs)})
+    with exporting(run):
+        best = run / "best.pt"
+        small = compact_gnn(read_gnn_checkpoint(best), sha256(best))
+        try:
+            summary = json.loads((run / "summary.json").read_text())
+        except (OSError, json.JSONDecodeError) as e:
+            raise DomainError(run / "summary.json", f"cannot read the run's summary ({type(e).__name__})") from None
+        figs = {"run": str(run), "checkpoint": str(out), "checkpoint_epoch": small.get("epoch"), **summary}
+        write = may_write(out, small, force, read_gnn_checkpoint, "GNN checkpoint", "--out")
+        write_figs = figures is not None and (may_write(figures, figs, force, _read_json, "key figures", "--figures")
+                                              or write)
+        if write:
+            save_gnn_checkpoint(out, small)
+        if write_figs:
+            write_json(figures, {**figs, "provenance": results_provenance(figs)})
+    if written is not None:
+        written += [path for path, done in ((out, write), (figures, write_figs)) if done]
     return small, figs
 
 
-def export(run: Path, out: Path, figures: Path | None) -> tuple[dict, dict]:
-    """Write the compact checkpoint (and the key figures); returns (compact payload, figures)."""
-    best = run / "best.pt"
-    payload = read_checkpoint(best)
-    small, loss = faithful_compact(payload, sha256(best))
-    save_checkpoint(out, small)
-    logs, evals = split_metrics(run / "metrics.jsonl")
-    cfg = payload.get("config", {})
-    figs = {"run": str(run), "checkpoint": str(out), "checkpoint_step": payload.get("step"),
-            "checkpoint_precision": small["precision"], "float16_greedy_loss": loss,
-            **{k: cfg.get(k) for k in ("domain", "layout", "horizon", "seed", "steps", "gamma")},
-            **{k: cfg.get(k, was) for k, was in LEGACY.items()},
-            **key_figures(logs, evals)}
-    if figures is not None:
-        write_json(figures, {**figs, "provenance": results_provenance(figs)})
+def export(run: Path, out: Path, figures: Path | None, force: bool = False,
+           written: list | None = None) -> tuple[dict, dict]:
+    """Write the compact checkpoint (and the key figures); returns (compact payload, figures); the files written
+    go on `written` (those already this export are kept as they are). Everything is read and checked before
+    anything is written (see the module's docstring)."""
+    run, out = Path(run), Path(out)
+    with exporting(run):
+        best = run / "best.pt"
+        payload = read_checkpoint(best)
+        logs, evals = split_metrics(run / "metrics.jsonl")
+        small, loss = faithful_compact(payload, sha256(best))
+        cfg = payload.get("config", {})
+        recorded = {k: payload[k] for k in DOMAIN_KEYS if k in payload} or \
+            {"domain": payload.get("signature", {}).get("domain")}       # a run from before domains were recorded
+        figs = {"run": str(run), "checkpoint": str(out), "checkpoint_step": payload.get("step"),
+                "checkpoint_precision": small["precision"], "float16_greedy_loss": loss, **recorded,
+                **{k: cfg.get(k) for k in ("layout", "horizon", "seed", "steps", "gamma")},
+                **{k: cfg.get(k, was) for k, was in LEGACY.items()}, "config": cfg,
+                **key_figures(logs, evals)}
+        write = may_write(out, small, force, read_checkpoint, "checkpoint", "--out")
+        write_figs = figures is not None and (may_write(Path(figures), figs, force, _read_json, "key figures",
+                                                        "--figures") or write)
+        short = unfinished(run, payload, logs, evals)
+        if short:
+            print(f"{run}: unfinished, {short} (stopped before its end; rerun its training command to finish "
+                  "it); exported as it is", file=sys.stderr)
+        if write:
+            save_checkpoint(out, small)
+        if write_figs:
+            write_json(figures, {**figs, "provenance": results_provenance(figs)})
+    if written is not None:
+        written += [path for path, done in ((out, write), (figures, write_figs)) if done]
     return small, figs
+
+
+def _done(path: Path, written: list) -> str:
+    return f"wrote {path}" if path in written else f"kept {path} (already this export)"
 
 
 def main() -> None:
@@ -264,18 +449,28 @@ def main() -> None:
     p.add_argument("--out", help="compact checkpoint (default: checkpoints/rl-<horizon>-<layout>-seed<N>.pt, "
                                  "checkpoints/gnn-<variant>-<layout>-seed<N>.pt)")
     p.add_argument("--figures", help="key figures JSON (default: results/training-<checkpoint name without rl->.json)")
+    p.add_argument("--force", action="store_true", help="replace a checkpoint or figures file exported from another "
+                                                        "run (or one that is no export)")
 
     def run():
         args = p.parse_args()
         folder = Path(args.run)
+        if not folder.is_dir():
+            raise DomainError(folder, "no such run or dataset folder")
         if is_dataset(folder):
             if args.out:
                 raise DomainError("--out", "a dataset has no checkpoint; --figures names its key figures")
-            figs = dataset_figures(folder)
-            figures = Path(args.figures or f"results/dataset-gnn-{figs['variant']}-{figs['layout']}.json")
-            cli.check_writable(figures)
-            write_json(figures, {**figs, "provenance": results_provenance(figs)})
-            print(f"wrote {figures}: {figs['states']:,} states ("
+            with exporting(folder, "dataset"):
+                figs = dataset_figures(folder)
+                meta = folder / "meta.json"
+                name = f"dataset-gnn-{figs['variant']}-{file_name(figs['layout'], meta, 'layout')}.json"
+                figures = Path(args.figures or file_in("results", name, meta, "layout"))
+                cli.check_writable(figures)
+                written = [figures] if may_write(figures, figs, args.force, _read_json, "key figures",
+                                                 "--figures") else []
+                if written:
+                    write_json(figures, {**figs, "provenance": results_provenance(figs)})
+            print(f"{_done(figures, written)}: {figs['states']:,} states ("
                   + ", ".join(f"{v:,} {k}" for k, v in figs["kinds"].items())
                   + f"), mean C_AP {figs['c_ap']['mean']:,.1f}")
             return
@@ -285,16 +480,19 @@ def main() -> None:
         cli.check_writable(out)
         cli.check_writable(figures)
         if gnn:
-            small, figs = export_gnn(folder, out, figures)
-            print(f"wrote {out} ({out.stat().st_size / 1e3:.0f} KB, {PRECISION}, epoch {small.get('epoch')}, "
-                  f"validation L1 {figs['best_val_l1']:.2f}) and {figures}")
+            written = []
+            small, figs = export_gnn(folder, out, figures, force=args.force, written=written)
+            print(f"{_done(out, written)} ({out.stat().st_size / 1e3:.0f} KB, {PRECISION}, epoch {small.get('epoch')}, "
+                  f"validation L1 {figs['best_val_l1']:.2f}) and {_done(figures, written)}")
             return
-        small, figs = export(folder, out, figures)
+        written = []
+        small, figs = export(folder, out, figures, force=args.force, written=written)
         at = figs.get("at", {})
         kept = "" if small["precision"] == PRECISION else (f": float16 would give up {figs['float16_greedy_loss']:,.4g}"
                                                         f" of value on a probe state's greedy action")
-        print(f"wrote {out} ({out.stat().st_size / 1e3:.0f} KB, {small['precision']}{kept}, step {small.get('step')}) "
-              f"and {figures}: {figs['steps']:,} steps in {figs['train_hours']} h; success (last 100) "
+        print(f"{_done(out, written)} ({out.stat().st_size / 1e3:.0f} KB, {small['precision']}{kept}, step "
+              f"{small.get('step')}) and {_done(figures, written)}: {figs['steps']:,} steps in {figs['train_hours']} h; "
+              "success (last 100) "
               + ", ".join(f"{int(k) // 1000}k {v['success_last_100']:.2f}" for k, v in at.items()))
 
     cli.run(run)

@@ -856,6 +856,11 @@ def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict,
 
 
 # ---- checkpoints ---------------------------------------------------------
+DOMAIN_KEYS = ("domain", "domain_sha256", "domain_files")
+"""What a checkpoint records of the domain it was trained on (`planning.domain.identity`)."""
+_warned: set = set()
+
+
 def save_checkpoint(path, payload: dict) -> Path:
     """Write a torch checkpoint atomically (a temporary file beside it, then os.replace), in plain
     types only (`learning.plain`): it loads with weights_only=True."""
@@ -875,8 +880,34 @@ def read_checkpoint(path) -> dict:
 
 
 def network_payload(net: FactoredQNet, enc: Encoding, extra: dict | None = None) -> dict:
-    """The minimal checkpoint of a network: weights, sizes and the layout signature."""
-    return {"net": net.state_dict(), "dims": net.dims, "signature": enc.signature(), **(extra or {})}
+    """The minimal checkpoint of a network: weights, sizes, the layout signature and the domain it was
+    trained on (its PDDL name and the digest of its files, `planning.domain.identity`)."""
+    from planning.domain.identity import identity
+
+    return {"net": net.state_dict(), "dims": net.dims, "signature": enc.signature(), **identity(enc.model),
+            **(extra or {})}
+
+
+def check_domain(path, payload: dict, model) -> None:
+    """A checkpoint about to be used on `model`'s layout: one recorded for another domain (its PDDL name)
+    or another layout is a one-line DomainError; one trained on other content of this domain (its
+    recorded domain_sha256 differs: an edited cost, a retuned reward) is a one-line warning on stderr,
+    once per file, and stays usable. A checkpoint that records no domain (those written before
+    2026-12, the committed ones among them) is checked by its layout signature alone."""
+    import sys
+
+    from planning.domain.identity import mismatch
+
+    sig = payload.get("signature") or {}
+    name = payload.get("domain") or sig.get("domain")
+    layout = (payload.get("config") or {}).get("layout") or sig.get("layout")
+    if (name or model.name, layout or model.layout) != (model.name, model.layout):
+        raise DomainError(path, f"trained for {name}/{layout}, not {model.name}/{model.layout}")
+    diff = mismatch(payload, model) if payload.get("domain_sha256") is not None else None
+    key = (str(Path(path).resolve()) if isinstance(path, (str, Path)) else str(path), payload.get("domain_sha256"))
+    if diff is not None and key not in _warned:
+        _warned.add(key)
+        print(f"warning: {path}: trained on {diff}; used as it is", file=sys.stderr)
 
 
 def build_network(enc: Encoding, hidden: int = 256, embed: int = 16, head_hidden: int = 64) -> FactoredQNet:
@@ -890,8 +921,9 @@ def load_value_function(path, model) -> ValueFunction:
 
 
 def value_function(payload: dict, model, path="checkpoint") -> ValueFunction:
-    """The greedy value of a loaded checkpoint payload (float32 weights), checked against the layout;
-    `path` names it in errors."""
+    """The greedy value of a loaded checkpoint payload (float32 weights), checked against the layout and
+    the domain (`check_domain`); `path` names it in errors."""
+    check_domain(path, payload, model)
     enc = Encoding(model)
     sig = payload.get("signature", {})
     mine = enc.signature()
