@@ -37,7 +37,8 @@ def run_options(p) -> None:
 def play(model, agent, ids, args, before=None):
     """(results, results path) of the agent on the sequences; `before(out, log)` runs first (e.g. workers)
     and returns the sequences it played, if any. The results are a `planning.world.runner.Evaluation`."""
-    out = args.out or default_out(agent, model)
+    protocol = getattr(args, "failure_protocol", DEFAULT_PROTOCOL)
+    out = args.out or default_out(agent, model, protocol=protocol)
     log = None
     if hasattr(agent, "set_log"):
         log = f"{out}.windows.jsonl"
@@ -48,8 +49,7 @@ def play(model, agent, ids, args, before=None):
         elsewhere = before(out, log) or {}
     r = evaluate(model, agent, ids, out, reference=reference_path(model), force=args.force,
                  strict=args.strict, progress=not args.no_progress,
-                 protocol=getattr(args, "failure_protocol", DEFAULT_PROTOCOL),
-                 played_by_workers=elsewhere.get("played", ()))
+                 protocol=protocol, played_by_workers=elsewhere.get("played", ()))
     r.seconds = round(r.seconds + elsewhere.get("wall", 0.0), 1)
     return r, out
 

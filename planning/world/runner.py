@@ -324,13 +324,16 @@ def improvement(cost: float, model, ids, reference=None, rows=None, resets=None)
     return round((c_ref - cost) / c_ref, 4), None
 
 
-def default_out(agent, model, results_dir="results") -> str:
+def default_out(agent, model, results_dir="results", protocol: str = DEFAULT_PROTOCOL) -> str:
     """results/<run name>-<layout>.json (the layout once, where the run name already holds it); for any
-    domain but the restaurant (whose committed names stay) the domain's name comes first."""
+    domain but the restaurant (whose committed names stay) the domain's name comes first, and a run under
+    a failure protocol other than the default ends in `-<protocol>`."""
     name = agent.run_name
     base = name if model.layout in name else f"{name}-{model.layout}"
     if model.name != "restaurant":
         base = f"{model.name}-{base}"
+    if protocol != DEFAULT_PROTOCOL:
+        base = f"{base}-{protocol}"
     return f"{results_dir}/{base}.json"
 
 

@@ -207,3 +207,9 @@ def test_the_digest_follows_the_world_not_comments_or_tool_settings(copy_of_rest
     assert changed["domain_sha256"] != first["domain_sha256"]
     assert [n for n in changed["domain_files"] if changed["domain_files"][n] != first["domain_files"][n]] == \
         ["domain.toml"]
+
+
+def test_a_run_under_the_thesis_protocol_gets_its_own_default_file(two_room):
+    agent = RandomPolicy(seed=0)
+    assert default_out(agent, two_room) == "results/random-seed0-two-room.json"
+    assert default_out(agent, two_room, protocol="abandon") == "results/random-seed0-two-room-abandon.json"
