@@ -11,10 +11,13 @@ anticipatory one Anticipatory RL (guided).
 The authors' reference planner was satisficing (LAMA); ours is optimal, so
 C_myo is the true myopic cost and the bound β·C_myo is never looser than
 theirs. β, the budget and the depth cap default to domain.toml [search] for
-the layout.
+the layout; where it gives no β, β = 1.0 (a one-line warning on stderr, once):
+only plans as cheap as the myopic one are eligible, so the agent plays exactly
+the myopic plan.
 """
 from __future__ import annotations
 
+import sys
 from dataclasses import asdict
 
 from learning.greedy import checkpoint_config, checkpoint_run_name
@@ -34,6 +37,19 @@ def search_defaults(model) -> dict:
             value = value[model.layout]
         out[key] = value
     return out
+
+
+_warned: set = set()
+
+
+def default_beta_warning(model) -> None:
+    """One line on stderr, once per domain file and layout: no β in domain.toml [search], so β = 1.0."""
+    key = (str(model.files["config"]), model.layout)
+    if key in _warned:
+        return
+    _warned.add(key)
+    print(f"warning: {model.files['config']}: no [search] beta for layout {model.layout}: beta = 1.0, so the "
+          "value-guided search plays exactly the myopic plan (set [search] beta, or pass --beta)", file=sys.stderr)
 
 
 class ValueGuidedPlanner(Planner):
@@ -67,6 +83,8 @@ class ValueGuidedPlanner(Planner):
                  time_limit=60.0, value=None):
         """`value`: any value of the protocol instead of the checkpoint's (then `checkpoint` only names it)."""
         d = search_defaults(model)
+        if beta is None and "beta" not in d:
+            default_beta_warning(model)
         self.beta = float(beta if beta is not None else d.get("beta", 1.0))
         self.budget = int(budget if budget is not None else d.get("budget", 5000))
         self.depth_cap = int(depth_cap if depth_cap is not None else d.get("depth_cap", 20))

@@ -4,11 +4,14 @@
 
 `cost_scale` (PDDL units per RL unit) and R_goal come from the domain folder:
 domain.toml [reward], else R_goal from the layout's calibration file written by
-`python -m experiments.calibrate`.
+`python -m experiments.calibrate`. Without [reward] cost_scale the scale is 1 (one
+PDDL unit per reward unit: the restaurant's 100 makes its rewards 100 times
+smaller), said once on stderr.
 """
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 from planning.errors import DomainError
@@ -19,8 +22,19 @@ def step_reward(cost: float, completed: bool, scale: float, r_goal: float) -> fl
     return -cost / scale + (r_goal if completed else 0.0)
 
 
+_warned: set = set()
+
+
 def cost_scale(model) -> float:
-    """PDDL cost units per RL reward unit (domain.toml [reward] cost_scale, default 1)."""
+    """PDDL cost units per RL reward unit (domain.toml [reward] cost_scale, default 1: a one-line warning on
+    stderr, once per domain file)."""
+    reward = getattr(model, "config", {}).get("reward", {})
+    if not (isinstance(reward, dict) and "cost_scale" in reward):
+        where = str(getattr(model, "files", {}).get("config", model.name))
+        if where not in _warned:
+            _warned.add(where)
+            print(f"warning: {where}: no [reward] cost_scale: 1 PDDL cost unit per reward unit (the rewards are "
+                  "-cost + R_goal; set [reward] cost_scale to scale them)", file=sys.stderr)
     return model.cost_scale
 
 

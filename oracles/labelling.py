@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import heapq
 import json
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -453,31 +454,180 @@ def _pddl_init_atoms(path, text: str) -> list[str]:
     return atoms
 
 
-def check_possible(model, state: int, where) -> None:
-    """A one-line error if two atoms of `state` never hold together in any world the layout can reach
-    (the robot in two places, an object held and on a table): mutex pairs from every reset world."""
+# ---- is a state one the layout can reach? --------------------------------------------------
+class ReachablePairs:
+    """Pairs of atoms that never hold together in any state a layout can reach: from any world a reset can
+    draw, by actions and by the consumption of completed tasks (the h^2-style fixpoint on pairs).
+
+    The starting pairs are exact: an atom that some [[reset]] entry names takes that entry's drawn choice (the
+    last such entry's), one that none names keeps its :init value, so two atoms hold together in some reset
+    world iff both can (atoms of one entry: in one of its choices). The transitions over-approximate: every
+    action, and every binding of every task instance (not only the first satisfied one, nor only the tasks
+    that can be drawn), each conditional effect firing or not. A pair left mutex is therefore a proof that no
+    reachable state holds both. Derived atoms (recomputed from the others after every change) are left out:
+    they are taken as able to hold with anything, and preconditions on them as satisfiable. `max_rounds` caps
+    the fixpoint; a capped analysis is not a proof (`complete` False)."""
+
+    MAX_CASES = 8            # conditional effects enumerated as subsets up to this many; beyond, one coarse case
+
+    def __init__(self, model, max_rounds: int | None = None):
+        n = self.n = model.n_atoms
+        derived = getattr(getattr(model, "axioms", None), "mask", 0) or 0
+        self.derived = _bool(derived, n)
+        m = ~_reset_together(model, n)
+        m[self.derived, :] = False
+        m[:, self.derived] = False
+        ops = list(model.ops) + [o for t in model.tasks for o in t.bindings]
+        cases = []
+        for op in ops:
+            for pos, neg, add, dele in _firings(op, self.MAX_CASES):
+                pos, neg = pos & ~derived, neg & ~derived
+                A = np.array(_bits(add & ~derived), dtype=np.int64)
+                if len(A):
+                    cases.append((np.array(_bits(pos), dtype=np.int64), _bool(neg, n), _bool(dele, n), A,
+                                  _bool(add, n)))
+        rounds, changed = 0, True
+        while changed and (max_rounds is None or rounds < max_rounds):
+            changed, rounds = False, rounds + 1
+            for P, neg, dele, A, add in cases:
+                if len(P) and (m[np.ix_(P, P)].any() or neg[P].any()):
+                    continue                        # never applicable in a state that respects m
+                # after the op, an added atom may hold with any q not deleted, not required false and not
+                # mutex with a precondition (then q was false before), or added too
+                apart = dele | neg | (m[P].any(0) if len(P) else np.zeros(n, dtype=bool))
+                hit = m[A] & (~apart | add)
+                if hit.any():
+                    for row, p in zip(hit, A):
+                        if row.any():
+                            m[p, row] = False
+                            m[row, p] = False
+                    changed = True
+        self.complete = not changed
+        np.fill_diagonal(m, False)
+        self.matrix = m
+
+    def violated(self, state: int) -> list[tuple[int, int]]:
+        """The mutex pairs (i < j) that `state` holds together."""
+        true = np.flatnonzero(_bool(state, self.n))
+        sub = self.matrix[np.ix_(true, true)]
+        return [(int(true[a]), int(true[b])) for a, b in zip(*np.nonzero(np.triu(sub, 1)))]
+
+
+def _bits(mask: int) -> list[int]:
+    return [i for i in range(mask.bit_length()) if mask >> i & 1]
+
+
+def _bool(mask: int, n: int) -> np.ndarray:
+    out = np.zeros(n, dtype=bool)
+    out[_bits(mask)] = True
+    return out
+
+
+def _firings(op, max_cases: int) -> list[tuple]:
+    """(pos, neg, add, dele) of each way an op can fire: each subset of its conditional effects (their
+    conditions joined to the precondition), or, past `max_cases` of them, one case with every conditional
+    add and no conditional delete or condition (coarser, still covering every firing). Adds win."""
+    conds = list(getattr(op, "cond", ()))
+    if len(conds) > max_cases:
+        add = op.add
+        for _, _, ca, _ in conds:
+            add |= ca
+        return [(op.pos, op.neg, add, op.dele & ~add)]
+    from itertools import combinations
+
+    out = []
+    for k in range(len(conds) + 1):
+        for sub in combinations(conds, k):
+            pos, neg, add, dele = op.pos, op.neg, op.add, op.dele
+            for cp, cn, ca, cd in sub:
+                pos, neg, add, dele = pos | cp, neg | cn, add | ca, dele | cd
+            if not pos & neg:
+                out.append((pos, neg, add, dele & ~add))
+    return out
+
+
+def _reset_together(model, n: int) -> np.ndarray:
+    """(n, n) bool: which pairs of atoms hold together in some world a reset can draw (choices of P > 0)."""
+    owner = np.full(n, -1)                       # the last [[reset]] entry that names each atom
+    choices = []
+    for e, (masks, probs) in enumerate(model.resets):
+        every = 0
+        for c in masks:
+            every |= c
+        owner[_bits(every)] = e
+        choices.append(np.array([_bool(c, n) for c, p in zip(masks, probs) if p > 0], dtype=bool).reshape(-1, n))
+    fixed = _bool(model.init, n) & (owner < 0)
+    can = fixed.copy()
+    for e, C in enumerate(choices):
+        can |= C.any(0) & (owner == e)
+    together = np.outer(can, can)
+    for e, C in enumerate(choices):             # two atoms of one entry: only in the same choice
+        mine = owner == e
+        same = (C.T.astype(np.int64) @ C.astype(np.int64)) > 0
+        block = np.ix_(mine, mine)
+        together[block] = same[block]
+    return together
+
+
+def reachable_states(model, limit: int = 20_000, target: int | None = None) -> tuple[set, bool]:
+    """(states, complete): the states reachable from every reset world by actions and by the consumption of
+    satisfied tasks (the first satisfied binding, as the world applies it), breadth first, at most `limit`;
+    stops early once `target` is found. complete: the whole reachable set was enumerated."""
+    from collections import deque
     from itertools import islice, product
 
-    from planning.heuristics.lmcut_pc import MutexPairs
-
-    starts = []
-    for picks in islice(product(*[range(len(choices)) for choices, _ in model.resets]), 256):
+    derive = getattr(model, "axioms", None) or (lambda s: s)
+    entries = []
+    for masks, probs in model.resets:
+        every = 0
+        for c in masks:
+            every |= c
+        entries.append([(c, every) for c, p in zip(masks, probs) if p > 0])
+    roots = []
+    for combo in islice(product(*entries), limit):
         s = model.init
-        for (choices, _), k in zip(model.resets, picks):
-            every = 0
-            for c in choices:
-                every |= c
-            s = (s & ~every) | choices[k]
-        starts.append(s)
-    mutex = MutexPairs(model, starts)
-    if mutex.respects(state):
-        return
-    true = [i for i in range(model.n_atoms) if state >> i & 1]
-    for i in true:
-        for j in true:
-            if i < j and mutex.matrix[i, j]:
-                raise DomainError(where, f"an impossible state: {atom_text(model.atoms[i])} and "
-                                         f"{atom_text(model.atoms[j])} never hold together in this layout")
+        for c, every in combo:
+            s = (s & ~every) | c
+        roots.append(derive(s))
+    seen = set(roots)
+    frontier = deque(seen)
+    while frontier:
+        if target in seen or len(seen) >= limit:
+            return seen, False
+        s = frontier.popleft()
+        nxt = [t for _, t, _ in model.successors(s)] + [task.consume(s) for task in model.tasks if task.satisfied(s)]
+        for t in nxt:
+            if t not in seen:
+                seen.add(t)
+                frontier.append(t)
+    return seen, True
+
+
+def check_possible(model, state: int, where, limit: int = 20_000, max_rounds: int | None = None) -> str | None:
+    """A one-line error if two atoms of `state` never hold together in any state the layout can reach (the
+    robot in two places, an object held and on a table): `ReachablePairs`, which accounts for every world
+    a reset can draw, every action and every task's consumption. Where the analysis cannot prove it, a
+    warning line instead (returned, the caller prints it): "not reachable as far as I can tell", when the
+    pair fixpoint was cut short, or when the state respects every pair but is none of the states
+    enumerated from the reset worlds though they were all enumerated. None: nothing to say.
+    `limit`: states enumerated at most; `max_rounds`: ReachablePairs's cap."""
+    pairs = ReachablePairs(model, max_rounds)
+    bad = pairs.violated(state)
+    if bad and pairs.complete:
+        i, j = bad[0]
+        raise DomainError(where, f"an impossible state: {atom_text(model.atoms[i])} and "
+                                 f"{atom_text(model.atoms[j])} never hold together in any state this layout "
+                                 "reaches (from a world reset, by actions and task consumption)")
+    if bad:
+        i, j = bad[0]
+        return (f"{where}: not reachable as far as I can tell: {atom_text(model.atoms[i])} and "
+                f"{atom_text(model.atoms[j])} seem never to hold together (the analysis was cut short); "
+                "labelled as given")
+    states, complete = reachable_states(model, limit, target=state)
+    if complete and state not in states:
+        return (f"{where}: not reachable as far as I can tell: none of the {len(states):,} states reachable "
+                "from the world resets by actions and task consumption; labelled as given")
+    return None
 
 
 def labels_file(model, state: int, label: Label, heuristic: str) -> dict:
@@ -536,7 +686,9 @@ def main() -> None:
     state = model.init if args.state is None else read_state(model, args.state)
     where = args.state or f"the start state of {model.layout}"
     if args.state is not None:
-        check_possible(model, state, where)
+        warning = check_possible(model, state, where)
+        if warning:
+            print(f"warning: {warning}", file=sys.stderr)
     if args.out and not args.force:
         check_replaceable(args.out, model, state)
     labeller = Labeller(model, args.heuristic, args.time_limit)
