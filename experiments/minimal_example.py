@@ -17,7 +17,7 @@ from dataclasses import asdict
 
 import numpy as np
 
-from learning.dqn import Config, Trainer, domain_defaults
+from learning.dqn import Config, domain_defaults, train_run
 from learning.qnet import ValueFunction
 from learning.reward import step_reward
 from planning import cli
@@ -103,11 +103,7 @@ def run(domain: str, seed: int, steps: int | None, out_dir: str, episodes: int =
             values["steps"] = steps
         cfg = Config(domain=domain, layout=model.layout, horizon=horizon, seed=seed,
                      out=f"{out_dir}/{horizon}-seed{seed}", **values)
-        trainer = Trainer(cfg, progress=progress)
-        last = trainer.out / "last.pt"
-        if last.is_file():
-            trainer.resume(last)          # an interrupted run goes on; a finished one is just measured
-        trainer.train()
+        trainer = train_run(cfg, progress=progress)     # an interrupted run goes on; a finished one is measured
         trainer.net.eval()
         vf = ValueFunction(trainer.net, trainer.enc)
         clear = model.tasks.get(FIRST)

@@ -79,14 +79,22 @@ class OutputLock:
         if key in OutputLock._held:
             OutputLock._held[key][1] += 1
             return self
-        self.lock.parent.mkdir(parents=True, exist_ok=True)
-        fd = os.open(self.lock, os.O_RDWR | os.O_CREAT, 0o666)
+        import errno
+
+        try:
+            self.lock.parent.mkdir(parents=True, exist_ok=True)
+            fd = os.open(self.lock, os.O_RDWR | os.O_CREAT, 0o666)
+        except OSError as e:
+            raise DomainError(self.path, f"cannot lock this {self.what} for writing ({e.strerror})") from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
+        except OSError as e:
             os.close(fd)
-            raise DomainError(self.path, f"another process is writing this {self.what}; wait for it to "
-                                         "finish, or write to another --out") from None
+            if e.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
+                raise DomainError(self.path, f"another process is writing this {self.what}; wait for it to "
+                                             "finish, or write to another --out") from None
+            raise DomainError(self.path, f"cannot lock this {self.what} for writing ({e.strerror}; a file "
+                                         "system without locks?)") from None
         os.ftruncate(fd, 0)
         os.write(fd, f"{os.getpid()}\n".encode())
         OutputLock._held[key] = [fd, 1]

@@ -298,3 +298,18 @@ def test_committed_checkpoints_load_as_before(two_room, capsys):
     vf = load_value_function(COMMITTED, two_room)
     assert vf.greedy([two_room.reset_state(0)], 0).shape == (1,)
     assert capsys.readouterr().err == "" and sha256(COMMITTED) == before
+
+
+def test_the_minimal_example_trains_and_resumes_through_the_one_resume_path(tmp_path):
+    """experiments.minimal_example trains through learning.dqn.train_run: a second run resumes each
+    horizon's finished run (same steps, no metrics row twice) instead of appending to it."""
+    import json
+
+    from experiments.minimal_example import run
+
+    first = run("domains/minimal", 0, 200, str(tmp_path), episodes=3, progress=False)
+    again = run("domains/minimal", 0, 200, str(tmp_path), episodes=3, progress=False)
+    assert first["myopic"]["steps"] == again["myopic"]["steps"] == 200
+    for horizon in ("myopic", "anticipatory"):
+        steps = [json.loads(line)["step"] for line in (tmp_path / f"{horizon}-seed0" / "metrics.jsonl").read_text().splitlines()]
+        assert steps == sorted(set(steps))
