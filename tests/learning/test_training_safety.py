@@ -311,5 +311,6 @@ def test_the_minimal_example_trains_and_resumes_through_the_one_resume_path(tmp_
     again = run("domains/minimal", 0, 200, str(tmp_path), episodes=3, progress=False)
     assert first["myopic"]["steps"] == again["myopic"]["steps"] == 200
     for horizon in ("myopic", "anticipatory"):
-        steps = [json.loads(line)["step"] for line in (tmp_path / f"{horizon}-seed0" / "metrics.jsonl").read_text().splitlines()]
-        assert steps == sorted(set(steps))
+        rows = [json.loads(line) for line in (tmp_path / f"{horizon}-seed0" / "metrics.jsonl").read_text().splitlines()]
+        steps = [r["step"] if "step" in r else r["eval"]["step"] for r in rows]
+        assert steps and steps == sorted(steps) and len(steps) == len({(s, "eval" in r) for s, r in zip(steps, rows)})
