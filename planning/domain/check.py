@@ -327,7 +327,9 @@ class Checker:
             except DomainError as e:
                 self.error(e.reason, "tasks", ttype)
                 ok = False
-        if ok:
+        layouts = self.config.get("layouts", {})
+        shared = any(not (isinstance(e, dict) and "tasks" in e) for e in layouts.values())
+        if ok and shared:              # some layout reads [tasks] as it is (the others: their overrides, compiled)
             total = sum(float(t["probability"]) for t in table.values())
             if abs(total - 1.0) > 1e-9:
                 self.error(f"task type probabilities sum to {total:g}, not 1", "tasks")
@@ -410,15 +412,20 @@ class Checker:
                         self.warn(f"[training] {key}.{sel} is keyed by '{bad[0]}', not a horizon", "training", key)
 
     def _check_coordinates(self) -> None:
-        coords = self.config.get("coordinates")
-        if coords is None:
-            return
-        if not isinstance(coords, dict):
-            self.error(f"[coordinates] is {coords!r}, not a table of object = [x, y]", "coordinates")
-            return
-        for name, xy in coords.items():
-            if not (isinstance(xy, list) and len(xy) == 2 and all(_number(v) for v in xy)):
-                self.error(f"[coordinates] {name} is {xy!r}, not [x, y]", "coordinates", name)
+        tables = [(("coordinates",), "[coordinates]", self.config.get("coordinates"))]
+        for layout, entry in self.config.get("layouts", {}).items():
+            if isinstance(entry, dict) and "coordinates" in entry:
+                tables.append((("layouts", layout, "coordinates"), f"[layouts.{layout}.coordinates]",
+                               entry["coordinates"]))
+        for path, label, coords in tables:
+            if coords is None:
+                continue
+            if not isinstance(coords, dict):
+                self.error(f"{label} is {coords!r}, not a table of object = [x, y]", *path)
+                continue
+            for name, xy in coords.items():
+                if not (isinstance(xy, list) and len(xy) == 2 and all(_number(v) for v in xy)):
+                    self.error(f"{label} {name} is {xy!r}, not [x, y]", *path, name)
 
     # ---- one layout ----
     def check_layout(self, layout: str):
@@ -482,6 +489,12 @@ class Checker:
         for name in coords:
             if name not in known:
                 self.warn(f"[coordinates] {name}: no such object in any layout", "coordinates", name)
+        for m in models:
+            own = self.config["layouts"][m.layout].get("coordinates")
+            for name in own if isinstance(own, dict) else ():
+                if name not in m.objects:
+                    self.warn(f"[layouts.{m.layout}.coordinates] {name}: no such object in layout {m.layout}",
+                              "layouts", m.layout, "coordinates", name)
 
     def _check_rooms(self, model) -> tuple[int, int]:
         layout = model.layout

@@ -159,3 +159,15 @@ def test_the_tools_say_where_they_take_a_silent_default(capsys, tmp_path):
     guided.ValueGuidedPlanner(model, "zero", beta=2.0, value=ZeroValue())
     reward.cost_scale(compile_domain("domains/minimal", "grid"))
     assert capsys.readouterr().err == ""
+
+
+def test_per_layout_overrides_are_checked_as_the_layout_reads_them(monkeypatch, tmp_path):
+    """[layouts.grid.tasks.deliver] narrows deliver to b for the grid: no warning, two task instances."""
+    folder = copy_minimal(tmp_path, lambda t: t.replace(
+        "\n[coordinates]", '\n[layouts.grid.tasks.deliver]\narguments = { "?r" = ["b"] }\n\n[coordinates]', 1))
+    monkeypatch.chdir(ROOT)
+    c = check.Checker(folder).run()
+    assert c.problems == []
+    (s,) = c.summaries
+    assert s.tasks == 2 and {t: [n for n, _, _ in inst] for t, inst in s.costs.items()} == {
+        "clear": ["clear(c)"], "deliver": ["deliver(b)"]}

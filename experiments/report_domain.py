@@ -1,0 +1,228 @@
+"""The report of any domain folder but the restaurant: the rows and tables of the thesis that apply to it.
+
+    python -m experiments.reproduce --domain domains/minimal [--layouts grid] [--report-only] [--out FILE]
+
+The layouts are the folder's (domain.toml [layouts]). Per layout the rows are
+those every domain has: the myopic oracle (Fast Downward, the reference of every
+improvement) and ours, the clairvoyant oracle for K = 2 and 3, and the learned
+values, greedy and guided, of each horizon: one run per Q-network checkpoint
+`checkpoints/rl-<horizon>-<layout>-seed<N>.pt` trained on this domain (seed 0,
+not yet trained, where there is none); the one-task GNN rows only where their
+models `checkpoints/gnn-<variant>-<layout>-seed<N>.pt` exist. Results files have
+the names `experiments.evaluate` gives them by default (the domain's name first).
+The tables are Table 5.2's and Table A.4's columns without the thesis's, the
+held-out split, the share of the clairvoyant saving and the §5.4.3 statistics
+on the rows that exist; what only the restaurant has (the thesis's figures, the
+three-room ablation of Table 5.3, the discount sweep of Table A.5, the
+restaurant's reference tables) is named as not applicable.
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from experiments import stats
+from experiments.report_data import ALL, DEVELOPMENT, HELD_OUT, improvement
+from experiments.report_specs import HORIZONS, Row, Run
+from experiments.report_tables import (MISSING, dagger, files_cell, num, pct, pm, seeds_cell, share, status,
+                                       table)
+
+CLAIRVOYANT_K = (2, 3)
+COMPARISONS = (("anticipatory-rl-guided", "myopic-rl-guided"), ("anticipatory-rl-guided", "myopic-oracle"),
+               ("anticipatory-rl-guided", "clairvoyant-2"), ("anticipatory-rl-greedy", "myopic-rl-greedy"))
+"""The pairs the statistics section tests where both rows exist (A against B)."""
+LEARNED = ("myopic-rl-greedy", "anticipatory-rl-greedy", "myopic-rl-guided", "anticipatory-rl-guided")
+NOT_APPLICABLE = [
+    "the thesis's figures and columns (its costs are the restaurant's);",
+    "Table 5.3, the value–search ablation of the three-room restaurant;",
+    "Table A.5, the discount sweep (three-room, seed 0);",
+    "the restaurant's reference tables: its planner, labelling, trainer and GNN benchmarks, reward calibration, "
+    "β selection, training runs and the thesis's minimal example (`python -m experiments.reproduce` reports them).",
+]
+
+
+def results_name(domain: str, run_name: str, layout: str) -> str:
+    """`planning.world.runner.default_out`'s name for a domain other than the restaurant."""
+    base = run_name if layout in run_name else f"{run_name}-{layout}"
+    return f"results/{domain}-{base}.json"
+
+
+def rl_seeds(domain: str, layout: str, horizon: str) -> list[int]:
+    """The seeds of `checkpoints/rl-<horizon>-<layout>-seed<N>.pt` trained on this domain (its PDDL name as the
+    checkpoint records it; a checkpoint that records none is counted)."""
+    from learning.qnet import read_checkpoint
+    from planning.errors import DomainError
+
+    seeds = []
+    for path in Path("checkpoints").glob(f"rl-{horizon}-{layout}-seed*.pt"):
+        m = re.fullmatch(rf"rl-{re.escape(horizon)}-{re.escape(layout)}-seed(\d+)", path.stem)
+        if not m:
+            continue
+        try:
+            recorded = read_checkpoint(path).get("domain")
+        except DomainError:
+            continue
+        if recorded in (None, domain):
+            seeds.append(int(m.group(1)))
+    return sorted(seeds)
+
+
+def gnn_seeds(layout: str, variant: str) -> list[int]:
+    out = []
+    for path in Path("checkpoints").glob(f"gnn-{variant}-{layout}-seed*.pt"):
+        m = re.fullmatch(rf"gnn-{variant}-{re.escape(layout)}-seed(\d+)", path.stem)
+        if m:
+            out.append(int(m.group(1)))
+    return sorted(out)
+
+
+def rows(folder: str, domain: str, layout: str) -> list[Row]:
+    """The rows of one layout of a domain folder, each run with its results file and command."""
+    d = ("--domain", folder)
+
+    def rl_run(agent, horizon, s):
+        ckpt = f"checkpoints/rl-{horizon}-{layout}-seed{s}.pt"
+        train = (f"python -m learning.dqn --domain {folder} --layout {layout} --horizon {horizon} --seed {s} && "
+                 f"python -m learning.export runs/dqn/{domain}-{layout}-{horizon}-seed{s}")
+        return Run(agent, layout, (*d, "--checkpoint", ckpt),
+                   results_name(domain, f"{agent}-{horizon}-{layout}-seed{s}", layout), s, ckpt, train)
+
+    def gnn_run(agent, variant, s):
+        model = f"checkpoints/gnn-{variant}-{layout}-seed{s}.pt"
+        return Run(agent, layout, (*d, "--model", model),
+                   results_name(domain, f"{agent}-{variant}-{layout}-seed{s}", layout), s, model, None)
+
+    out = [Row("myopic-oracle", "Myopic oracle (Fast Downward)", layout,
+               (Run("myopic-oracle", layout, d, results_name(domain, "myopic-oracle", layout)),)),
+           Row("myopic-oracle-internal", "Myopic oracle (ours)", layout,
+               (Run("myopic-oracle", layout, (*d, "--planner", "internal"),
+                    results_name(domain, "myopic-oracle-internal", layout)),))]
+    for horizon in HORIZONS:
+        seeds = rl_seeds(domain, layout, horizon) or [0]
+        for agent, deployment in (("rl-greedy", "greedy"), ("rl-guided", "guided")):
+            out.append(Row(f"{horizon}-rl-{deployment}", f"{horizon.capitalize()} RL ({deployment})", layout,
+                           tuple(rl_run(agent, horizon, s) for s in seeds), seeded=True,
+                           template=rl_run(agent, horizon, "$N")))
+    for variant, key, label in (("faithful", "gnn", "One-task GNN"),
+                                ("augmented", "gnn-augmented", "One-task GNN (augmented)")):
+        seeds = gnn_seeds(layout, variant)
+        if seeds:
+            out.append(Row(key, label, layout, tuple(gnn_run("gnn-native", variant, s) for s in seeds),
+                           seeded=True, template=gnn_run("gnn-native", variant, "$N")))
+    for K in CLAIRVOYANT_K:
+        out.append(Row(f"clairvoyant-{K}", f"Clairvoyant oracle (K = {K})", layout,
+                       (Run("clairvoyant", layout, (*d, "--K", str(K), "--time-limit", "60"),
+                            results_name(domain, f"clairvoyant-{K}", layout)),)))
+    return out
+
+
+# ---- tables ---------------------------------------------------------------------------------
+def methods(results: dict) -> list[str]:
+    """Table 5.2's columns on every row: cost, improvement over the myopic oracle, success, seeds, files."""
+    out = []
+    for layout, rows_ in results.items():
+        ref = rows_["myopic-oracle"]
+        body = []
+        for key, rr in rows_.items():
+            f = rr.figures()
+            if f is None:
+                body.append([rr.row.label, status(rr), "—", "—", seeds_cell(rr), "—"])
+                continue
+            imp = "(reference)" if key == "myopic-oracle" else pct(improvement(rr, ref))
+            succ = pm(100 * f["success"], 100 * f["success_std"] if f["success_std"] is not None else None) + "%"
+            body.append([rr.row.label, pm(f["cost"], f["cost_std"]) + dagger(rr), imp, succ, seeds_cell(rr),
+                         files_cell(rr)])
+        out += [f"### {layout}", ""]
+        out += table(["method", "cost/task", "improvement", "success", "seeds", "results files"], body)
+        out.append("")
+    return out
+
+
+def learned(results: dict) -> list[str]:
+    """Table A.4's columns: the learned values, greedy and guided, with their steps per task."""
+    body = []
+    for layout, rows_ in results.items():
+        for key in LEARNED:
+            rr = rows_[key]
+            f = rr.figures()
+            horizon, _, deployment = key.partition("-rl-")
+            if f is None:
+                body.append([layout, deployment, horizon, status(rr), "—", "—", seeds_cell(rr)])
+                continue
+            sd = lambda k, s=1: (f[f"{k}_std"] * s if f[f"{k}_std"] is not None else None)
+            body.append([layout, deployment, horizon, pm(100 * f["success"], sd("success", 100)),
+                         pm(f["steps"], sd("steps"), 2), pm(f["cost"], sd("cost")) + dagger(rr), seeds_cell(rr)])
+    return table(["layout", "deployment", "horizon", "success %", "steps/task", "cost/task", "seeds"], body)
+
+
+def held_out(results: dict) -> list[str]:
+    body = []
+    for layout, rows_ in results.items():
+        ref = rows_["myopic-oracle"]
+        for key, rr in rows_.items():
+            if rr.figures() is None:
+                continue
+            dev, held, every = rr.figures(DEVELOPMENT), rr.figures(HELD_OUT), rr.figures(ALL)
+            body.append([layout, rr.row.label + dagger(rr), num(dev["cost"]) if dev else "—",
+                         num(held["cost"]) if held else "—", num(every["cost"]) if every else "—",
+                         "(reference)" if key == "myopic-oracle" else pct(improvement(rr, ref, DEVELOPMENT)),
+                         "(reference)" if key == "myopic-oracle" else pct(improvement(rr, ref, HELD_OUT))])
+    if not body:
+        return ["No results yet."]
+    return table(["layout", "method", "development 01, 03, 06", "held-out seven", "all ten",
+                  "improvement, development", "improvement, held-out"], body)
+
+
+def clairvoyant_share(results: dict) -> list[str]:
+    body = []
+    for layout, rows_ in results.items():
+        ref = rows_["myopic-oracle"].figures()
+        for key, rr in rows_.items():
+            if key.startswith(("myopic-oracle", "clairvoyant")):
+                continue
+            f = rr.figures()
+            if f is None or ref is None:
+                body.append([layout, rr.row.label, status(rr), *["—"] * len(CLAIRVOYANT_K)])
+                continue
+            cells = []
+            for K in CLAIRVOYANT_K:
+                ck = rows_[f"clairvoyant-{K}"].figures(f["sequences"])
+                cells.append(pct(share(ref["cost"], f["cost"], ck["cost"] if ck else None), 0, False))
+            body.append([layout, rr.row.label + dagger(rr), pct(improvement(rr, rows_["myopic-oracle"])), *cells])
+    return table(["layout", "method", "improvement", *(f"share of K = {K} saving" for K in CLAIRVOYANT_K)], body)
+
+
+def statistics(results: dict) -> list[str]:
+    body = []
+    for layout, rows_ in results.items():
+        for a, b in COMPARISONS:
+            if a not in rows_ or b not in rows_:
+                continue
+            ra, rb = rows_[a], rows_[b]
+            label = f"{ra.row.label} vs {rb.row.label}"
+            for split, ids in (("all ten", ALL), ("held-out seven", HELD_OUT)):
+                if not ra.used or not rb.used:
+                    missing = " and ".join(r.row.label for r in (ra, rb) if not r.used)
+                    body.append([layout, label, split, f"not run ({missing}: {MISSING})", "—", "—", "—", "—"])
+                    continue
+                res = stats.compare(ra.used, rb.used, ids)
+                w, t = res["wilcoxon"], res["welch"]
+                wil = f"W = {w['statistic']:g}, p = {w['p']:.4g}" if "p" in w else w["reason"]
+                welch = (f"t({t['df']:.1f}) = {t['t']:.2f}, p = {t['p']:.3g}; 95% CI "
+                         f"{pct(t['ci'][0], 1, False)} to {pct(t['ci'][1], 1, False)}" if "t" in t else t["reason"])
+                body.append([layout, label + (dagger(ra) or dagger(rb)), split, f"{w['a_cheaper']} of {w['n']}", wil,
+                             pct(t["reduction"]) if t.get("reduction") is not None else "—", welch,
+                             f"{t['n_a']} / {t['n_b']}"])
+    return table(["layout", "A vs B", "sequences", "A cheaper on", "Wilcoxon (exact, two-sided)",
+                  "reduction 1 − A/B (seed means)", "Welch's t across seeds", "seeds A / B"], body)
+
+
+def sequences_note(ctx, layouts) -> list[str]:
+    """One line per layout without its canonical sequences (no row can be played there yet)."""
+    out = []
+    for layout in layouts:
+        folder = Path(ctx.domain) / "sequences" / layout
+        if not any(folder.glob("seq-*.json")):
+            out.append(f"- {layout}: no canonical sequences in `{folder}`: `python -m planning.world.sequences "
+                       f"--domain {ctx.domain} --layout {layout}` writes them (every row needs them).")
+    return out
