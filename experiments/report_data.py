@@ -121,11 +121,21 @@ def accounting(data: dict) -> tuple[str, str | None]:
     failed = [r for r in data.get("per_task", []) if not r.get("success", True)]
     if not failed:
         return "no failed tasks", None
-    if all("charged_cost" in r for r in failed):
-        return f"charged ({len(failed)} failed tasks: executed + optimal completion)", None
-    return (f"executed only ({len(failed)} failed tasks)",
-            f"{len(failed)} failed tasks counted at their executed cost only: written before failures were "
-            "charged, so its cost per task understates; rerun it (`experiments.reproduce` replays those sequences)")
+    if all(r.get("completed_by") == "fallback" for r in failed):
+        return f"fallback ({len(failed)} failed tasks: executed + the optimal completion, which was executed)", None
+    if all(r.get("completed_by") == "nothing" for r in failed):
+        return f"abandoned, the thesis's protocol ({len(failed)} failed tasks at their executed cost)", None
+    return (f"charged, world left unfinished ({len(failed)} failed tasks)",
+            f"{len(failed)} failed tasks charged without executing their completion: written before the "
+            "fallback was executed, so later tasks start from worlds no finished task leaves; rerun it with --force")
+
+
+def run_protocol(run: Run) -> str:
+    """The failure protocol a row's run plays under (its --failure-protocol, else the default)."""
+    from planning.world.runner import DEFAULT_PROTOCOL
+
+    opts = list(run.options)
+    return opts[opts.index("--failure-protocol") + 1] if "--failure-protocol" in opts else DEFAULT_PROTOCOL
 
 
 class Context:
@@ -146,9 +156,12 @@ class Context:
         """The agent `experiments.evaluate` builds from the run's command line."""
         from planning import cli
 
+        from oracles.command import run_options
+
         cls = agent_class(run.agent)
         p = cli.parser("reproduce", sequences=True)
         p.add_argument("--agent")
+        run_options(p)                     # --failure-protocol and the other options every evaluation takes
         cls.options(p)
         args = p.parse_args(["--domain", self.domain, *run.argv])
         return cls.from_args(args, self.model(run.layout))
@@ -176,7 +189,7 @@ def load_run(run: Run, ctx: Context) -> Loaded:
         agent = ctx.agent(run)
     except DomainError as e:
         return Loaded(run, "not used", data, note=f"the row's agent cannot be built: {e}")
-    diff = difference(data, agent, ctx.model(run.layout))
+    diff = difference(data, agent, ctx.model(run.layout), run_protocol(run))
     if diff:
         return Loaded(run, "not used", data, note=f"made with {diff} (the row expects the command's configuration)")
     loaded = Loaded(run, "ok", data)

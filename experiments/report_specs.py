@@ -163,6 +163,13 @@ def _rl_run(agent: str, horizon: str, layout: str, s) -> Run:
                rl_train(horizon, layout, s))
 
 
+def _rl_run_abandon(agent: str, horizon: str, layout: str, s) -> Run:
+    """A greedy run under the thesis's failure protocol (abandon: executed cost only), for Table A.4."""
+    return Run(agent, layout, ("--checkpoint", rl_checkpoint(horizon, layout, s), "--failure-protocol", "abandon"),
+               f"results/{agent}-{horizon}-{layout}-seed{s}-abandon.json", s, rl_checkpoint(horizon, layout, s),
+               rl_train(horizon, layout, s))
+
+
 def _gnn_run(agent: str, variant: str, layout: str, s) -> Run:
     return Run(agent, layout, ("--model", gnn_model(variant, layout, s)),
                f"results/{agent}-{variant}-{layout}-seed{s}.json", s, gnn_model(variant, layout, s),
@@ -189,6 +196,11 @@ def rows(layout: str) -> list[Row]:
                     "anticipatory"),
             _seeded("anticipatory-rl-guided", "Anticipatory RL (guided)", layout, _rl_run, rl, "rl-guided",
                     "anticipatory")]
+    for horizon in HORIZONS:              # Table A.4 beside the thesis: its protocol, failed tasks abandoned
+        key = f"{horizon}-rl-greedy"
+        out.append(Row(f"{key}-abandon", f"{horizon.capitalize()} RL (greedy, thesis protocol)", layout,
+                       tuple(_rl_run_abandon("rl-greedy", horizon, layout, s) for s in rl), t[key], True,
+                       _rl_run_abandon("rl-greedy", horizon, layout, "$N")))
     for K in (2, 3, 4):
         out.append(Row(f"clairvoyant-{K}", f"Clairvoyant oracle (K = {K})", layout,
                        (Run("clairvoyant", layout, ("--K", str(K), "--time-limit", "60"),
@@ -202,6 +214,8 @@ def rows(layout: str) -> list[Row]:
 TABLE_5_2 = ("myopic-oracle", "myopic-rl-greedy", "myopic-rl-guided", "gnn", "gnn-augmented",
              "anticipatory-rl-greedy", "anticipatory-rl-guided", "clairvoyant-2", "clairvoyant-3", "clairvoyant-4")
 LEARNED = ("myopic-rl-greedy", "anticipatory-rl-greedy", "myopic-rl-guided", "anticipatory-rl-guided")
+THESIS_PROTOCOL = ("myopic-rl-greedy-abandon", "anticipatory-rl-greedy-abandon")
+"""Table A.4's greedy rows replayed under the thesis's own failure protocol (abandon), beside ours."""
 AGENTS = ("myopic-rl-greedy", "myopic-rl-guided", "gnn", "gnn-augmented", "anticipatory-rl-greedy",
           "anticipatory-rl-guided")
 COMPARISONS = (("anticipatory-rl-guided", "gnn-augmented"), ("anticipatory-rl-guided", "myopic-rl-guided"),

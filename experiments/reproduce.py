@@ -38,8 +38,8 @@ from tqdm import tqdm
 from experiments import report_domain
 from experiments import report_figures as figs
 from experiments import report_reference, report_tables
-from experiments.report_data import (ALL, Context, load_rows, load_run, read_json, read_jsonl, sha256, writer_pid,
-                                      last_commit)
+from experiments.report_data import (ALL, Context, last_commit, load_rows, load_run, read_json, read_jsonl,
+                                     run_protocol, sha256, writer_pid)
 from experiments.report_specs import (AGENTS, LAYOUTS, THESIS, THESIS_DISCOUNT, THESIS_MINIMAL, discount_runs,
                                       rl_checkpoint, rl_run_dir, rows as row_specs, training_logs)
 from planning import cli
@@ -54,7 +54,8 @@ NOTES = Path("docs/results-notes.md")
 # ---- running what is missing ----------------------------------------------------------------
 def needs_run(loaded, ids=ALL) -> bool:
     """True if reproduce should (re)run this run: missing, interrupted (no process writing it), or used but
-    short of the sequences `ids` or with failed tasks not yet charged (the runner replays those)."""
+    short of the sequences `ids`. A file made otherwise (another configuration, failure protocol or domain
+    content) is not used and not replaced: that takes the run's command with --force."""
     if loaded.status == "not run":
         return True
     if loaded.status == "in progress":
@@ -62,7 +63,7 @@ def needs_run(loaded, ids=ALL) -> bool:
     if not loaded.used:
         return False
     have = {s["id"] for s in loaded.data["per_sequence"]}
-    return bool(set(ids) - have) or any("executed cost only" in f for f in loaded.flags)
+    return bool(set(ids) - have)
 
 
 def run_missing(rows, ctx: Context, ids=ALL, progress: bool = True, via: str = "") -> list[str]:
@@ -80,7 +81,8 @@ def run_missing(rows, ctx: Context, ids=ALL, progress: bool = True, via: str = "
         model, agent = ctx.model(run.layout), ctx.agent(run)
         if hasattr(agent, "set_log"):
             agent.set_log(f"{run.out}.windows.jsonl")
-        evaluate(model, agent, list(ids), run.out, progress=progress, reference=reference_path(model))
+        evaluate(model, agent, list(ids), run.out, progress=progress, reference=reference_path(model),
+                 protocol=run_protocol(run))
         stamp(run, via)
         written.append(run.out)
     return written

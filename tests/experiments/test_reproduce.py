@@ -111,7 +111,7 @@ def test_run_missing_writes_provenance_and_resumes(tiny):
     assert prov["played_in_this_process"] == [0, 1] and prov["date_utc"].endswith("Z")
     assert {"commit", "machine", "uncommitted_code"} <= set(prov)
     loaded = load_run(run, ctx)
-    assert loaded.used and loaded.accounting.startswith(("charged", "no failed"))
+    assert loaded.used and loaded.accounting.startswith(("fallback", "no failed"))
     assert not needs_run(loaded, [0, 1]) and needs_run(loaded, [0, 1, 2])
     assert run_missing([row], ctx, ids=[0, 1], progress=False) == []
 
@@ -122,16 +122,16 @@ def test_a_row_flags_or_refuses_what_it_does_not_expect(tiny):
     data = json.loads(Path(run.out).read_text())
     failed = [r for r in data["per_task"] if not r["success"]]
     assert failed, "the random policy is expected to fail one of six tasks"
-    legacy = json.loads(json.dumps(data))          # a file from before failures were charged
+    legacy = json.loads(json.dumps(data))          # a file from before the fallback was executed
     for r in legacy["per_task"]:
-        for k in ("executed_cost", "completion_cost", "charged_cost"):
-            r.pop(k, None)
+        r.pop("completed_by", None)
+        r.pop("completion_plan", None)
     legacy.pop("provenance")
+    legacy.pop("failure_protocol")
     Path(run.out).write_text(json.dumps(legacy))
     loaded = load_run(run, ctx)
-    assert loaded.used and loaded.accounting.startswith("executed only")
-    assert any("executed cost only" in f for f in loaded.flags) and any("no provenance" in n for n in loaded.notes)
-    assert needs_run(loaded, [0, 1])               # reproduce would replay and charge it
+    assert not loaded.used and "failure protocol 'charged" in loaded.note
+    assert not needs_run(loaded, [0, 1])           # made otherwise: replaced only by its command with --force
     Path(run.out).write_text(json.dumps({**data, "config": {"seed": 2}}))
     other = load_run(run, ctx)
     assert other.status == "not used" and "seed 2" in other.note
