@@ -22,6 +22,10 @@ only a settled task needed.
 
     python -m oracles.labelling --layout three-room [--state FILE] [--out FILE] [--force]
 
+--state is checked first (`check_possible`): a state two of whose atoms never hold together in any state
+the layout reaches (from a world reset, by actions and by task consumption) is refused; one the check
+cannot place is labelled with a warning, "not reachable as far as I can tell".
+
 --out writes the label with the domain's identity (`planning.domain.identity`), the layout and
 the state's atoms; it never replaces a labels file of another state, layout or domain content
 (nor any other file) unless --force.

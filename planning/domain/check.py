@@ -167,7 +167,7 @@ class Lines:
         if m:
             return self.toml("layouts")
         m = re.search(r"\btask(?: type)? '?([\w-]+)'?", reason)
-        if m and self.toml("tasks", m.group(1)) is not None and ("tasks", m.group(1)) in {k[:2] for k in self.index}:
+        if m and ("tasks", m.group(1)) in {k[:2] for k in self.index}:
             key = re.search(r"'(\?[\w-]+)'|(\?[\w-]+)", reason)
             return self.toml("tasks", m.group(1), "arguments") if key else self.toml("tasks", m.group(1))
         if "probabilities sum" in reason:
@@ -367,8 +367,7 @@ class Checker:
         search = self.config.get("search")
         if search is None:
             self.warn("no [search]: rl-guided takes beta = 1.0 (it then plays exactly the myopic plan), budget "
-                      "5000 and depth_cap 20; set [search] beta (> 1 lets it leave the myopic plan)", "search",
-                      line=None)
+                      "5000 and depth_cap 20; set [search] beta (> 1 lets it leave the myopic plan)", "search")
             return
         if not isinstance(search, dict):
             return
