@@ -3,7 +3,8 @@
 A batch of states is a (N, W) uint64 array, W = ceil(atoms / 64) words per
 state. Preconditions are tested word by word against (V, W) masks, so one call
 tests every variant of every ground action on every state; effects are indexed
-by ground action (all variants of an action share them).
+by ground action (all variants of an action share them). Derived atoms are
+recomputed after each step by the batched axioms (planning.domain.axioms).
 """
 from __future__ import annotations
 
@@ -58,6 +59,10 @@ class BatchedModel:
         # atom holds (the same index as Model.successors uses).
         self._groups = [(t, np.array(vs, dtype=np.int64)) for t, vs in model.trigger_groups().items()]
         self._first_of = {v: f for v, f in self._later}
+        self.derive = None            # BatchedAxioms where the domain has derived predicates
+        if getattr(model, "axioms", None) is not None:
+            from planning.domain.axioms import BatchedAxioms
+            self.derive = BatchedAxioms(model.axioms, self.pack)
 
     # ---- packing ---------------------------------------------------------
     def pack(self, states) -> np.ndarray:
@@ -120,19 +125,29 @@ class BatchedModel:
                 raise DomainError(self.model.actions[actions[i]], f"not applicable in batch state {i}")
         return self._apply(batch, actions), self.cost[actions]
 
-    def successors(self, batch: np.ndarray):
-        """Every applicable transition: (parent index, action, next state, cost) arrays."""
+    def successors(self, batch: np.ndarray, keyed: bool = False):
+        """Every applicable transition: (parent index, action, next state, cost) arrays.
+
+        They come grouped by trigger atom, then by parent, then by variant. `keyed` adds two arrays
+        that give that order ((group, parent, position in the group) sorts them): the successors of
+        a batch cut into chunks, so sorted, come in the order of one call over the whole batch."""
         bits = self.to_bits(batch).T.copy()              # (atoms, N): a row per atom
-        parents, variants = [], []
-        for trigger, vs in self._groups:
+        parents, variants, groups, places = [], [], [], []
+        for k, (trigger, vs) in enumerate(self._groups):
             rows = np.flatnonzero(bits[trigger]) if trigger >= 0 else np.arange(len(batch))
             if not len(rows):
                 continue
             r, v = np.nonzero(self._violations(batch[rows], vs) == 0)
             parents.append(rows[r])
             variants.append(vs[v])
-        parent = np.concatenate(parents) if parents else np.zeros(0, dtype=np.int64)
-        variant = np.concatenate(variants) if variants else np.zeros(0, dtype=np.int64)
+            if keyed:
+                groups.append(np.full(len(r), k, dtype=np.int64))
+                places.append(v)
+        empty = np.zeros(0, dtype=np.int64)
+        parent = np.concatenate(parents) if parents else empty
+        variant = np.concatenate(variants) if variants else empty
+        group = np.concatenate(groups) if groups else empty
+        place = np.concatenate(places) if places else empty
         if self._later:   # drop a later variant where its action's first variant applies too
             dup = np.zeros(len(variant), dtype=bool)
             for v, first in self._later:
@@ -140,8 +155,11 @@ class BatchedModel:
                 if len(sel):
                     dup[sel] = self._violations(batch[parent[sel]], np.array([first]))[:, 0] == 0
             parent, variant = parent[~dup], variant[~dup]
+            if keyed:
+                group, place = group[~dup], place[~dup]
         action = self.op_action[variant]
-        return parent, action, self._apply(batch[parent], action), self.cost[action]
+        out = parent, action, self._apply(batch[parent], action), self.cost[action]
+        return (*out, group, place) if keyed else out
 
     def apply_op(self, batch: np.ndarray, op) -> np.ndarray:
         """One Op (e.g. a task's consumption) applied to every state of a batch."""
@@ -151,7 +169,7 @@ class BatchedModel:
             cp, cn, ca, cd = (self.pack([m])[0] for m in (cp, cn, ca, cd))
             fire = ((batch & cp) == cp).all(1) & ((batch & cn) == 0).all(1)
             out[fire] = (out[fire] & ~cd) | ca
-        return out
+        return out if self.derive is None else self.derive(out)
 
     def _apply(self, batch: np.ndarray, actions: np.ndarray) -> np.ndarray:
         out = (batch & self.keep[actions]) | self.add[actions]
@@ -164,7 +182,7 @@ class BatchedModel:
                 add = np.bitwise_or.reduce(np.where(fire, cadd, 0), axis=1)
                 dele = np.bitwise_or.reduce(np.where(fire, cdel, 0), axis=1)
                 out[rows] = (out[rows] & ~dele) | add
-        return out
+        return out if self.derive is None else self.derive(out)
 
 
 def goal_arrays(bm, task) -> tuple[np.ndarray, np.ndarray]:

@@ -1,8 +1,14 @@
 """Compile a domain folder's layout into a grounded Model.
 
 Steps: parse (domain_folder) -> find fluent predicates -> ground the action and
-task schemas (grounding) -> keep what relaxed reachability from the initial and
-reset states can reach -> number the atoms -> bitset masks and integer costs.
+task schemas and the derived predicates' axioms (grounding) -> keep what relaxed
+reachability from the initial and reset states can reach -> number the atoms ->
+bitset masks and integer costs; the axioms stratified (planning.domain.axioms).
+
+Costs: a domain that declares the (total-cost) function (:action-costs) charges each
+action its (increase (total-cost) ...) effect, a number or a static function of the
+problem, 0 where it has none (PDDL's and Fast Downward's reading); a domain without it
+charges every action 1, so a cost is a plan length.
 """
 from __future__ import annotations
 
@@ -12,6 +18,7 @@ from pathlib import Path
 from tarski.fstrips import UniversalEffect
 from tarski.syntax import CompoundTerm, Constant
 
+from planning.domain.axioms import Axioms, stratify
 from planning.domain.folder import DomainSource, read_domain
 from planning.errors import DomainError
 from planning.domain.grounding import GroundVariant, Grounder, atom_text, parse_atom_text
@@ -49,19 +56,34 @@ def _effect_predicates(effects) -> set[str]:
 def compile_source(src: DomainSource) -> Model:
     """Ground and compile a parsed domain folder layout."""
     fluents = set()
-    for schema in [*src.actions.values(), *src.task_schemas.values()]:
-        fluents |= _effect_predicates(schema.effects)
-    grounder = Grounder(src.problem, fluents, src.domain_file)
+    for kind, schemas in (("action", src.actions), ("task schema", src.task_schemas)):
+        for schema in schemas.values():
+            changed = _effect_predicates(schema.effects)
+            if changed & set(src.derived):
+                where = src.domain_file if kind == "action" else src.tasks_file
+                raise DomainError(where, f"{kind} {schema.name} changes derived predicate "
+                                         f"{sorted(changed & set(src.derived))[0]}: a derived predicate follows "
+                                         "from the other atoms, no effect may set it")
+            fluents |= changed
+    fluents |= set(src.derived)
+    grounder = Grounder(src.problem, fluents, src.domain_file, src.derived)
 
     variants = [v for schema in src.actions.values() for v in grounder.ground_schema(schema)]
+    rules = _ground_axioms(src, grounder)               # [(GroundVariant adding the head, line)]
     tasks_raw = compile_tasks(src, grounder)           # [(TaskSpec, [GroundVariant])]
-    init = {grounder.ground_atom(a, {}) for a in src.problem.init.as_atoms()
-            if hasattr(a, "predicate") and a.predicate.name in fluents}
+    init = set()
+    for a in src.problem.init.as_atoms():
+        if hasattr(a, "predicate") and a.predicate.name in fluents:
+            key = grounder.ground_atom(a, {})
+            if key[0] in src.derived:
+                raise DomainError(src.problem_file, f"{atom_text(key)} in :init: {key[0]} is a derived predicate, "
+                                                    "it follows from the other atoms")
+            init.add(key)
     resets = _reset_choices(src, grounder, fluents)
 
     task_variants = [v for _, vs in tasks_raw for v in vs]
     reach = _relaxed_reachable(init | {a for choices, _ in resets for c in choices for a in c},
-                               variants + task_variants)
+                               variants + task_variants + [r for r, _ in rules])
     preds = {p.name: i for i, p in enumerate(src.problem.language.predicates)}
     obj_rank = {o: i for i, o in enumerate(grounder.objects)}
     atoms = sorted(reach, key=lambda k: (preds.get(k[0], 0), [obj_rank[o] for o in k[1:]]))
@@ -73,6 +95,12 @@ def compile_source(src: DomainSource) -> Model:
             if k in index:
                 m |= 1 << index[k]
         return m
+
+    axioms = None
+    if src.derived:
+        strata = stratify(src, [(r, line) for r, line in rules if r.pos <= reach])
+        axioms = Axioms([[(mask(r.pos), mask(r.neg), mask(r.add)) for r in stratum] for stratum in strata],
+                        mask(a for a in atoms if a[0] in src.derived))
 
     def op(v: GroundVariant) -> Op | None:
         if not v.pos <= reach:
@@ -98,13 +126,15 @@ def compile_source(src: DomainSource) -> Model:
     model = Model(
         name=src.name, layout=src.layout, folder=src.folder, config=src.config,
         atoms=atoms, actions=names, action_schema=schemas, action_args=args,
-        action_cost=costs, ops=ops, op_action=op_action, init=mask(init),
+        action_cost=costs, ops=ops, op_action=op_action,
+        init=mask(init) if axioms is None else axioms(mask(init)),
         objects=grounder.objects, objects_of=grounder.objects_of,
         schema_params={n: [(p.symbol, p.sort.name) for p in s.parameters]
                        for n, s in src.actions.items()},
         resets=[([mask(c) for c in choices], probs) for choices, probs in resets],
         files={"domain": src.domain_file, "tasks": src.tasks_file, "problem": src.problem_file,
                "config": src.folder / "domain.toml"},
+        axioms=axioms,
     )
     model.attach_tasks([(spec, [o for o in map(op, vs) if o is not None]) for spec, vs in tasks_raw])
     model.source = src                      # the tarski schemas, for writing PDDL back out
@@ -134,9 +164,24 @@ def _relaxed_reachable(start: set, variants: list[GroundVariant]) -> set:
     return reach
 
 
+def _ground_axioms(src: DomainSource, grounder: Grounder) -> list:
+    """[(rule, line)]: each derived predicate's axioms grounded, one rule per conjunction of a body's DNF;
+    a rule is a GroundVariant whose precondition is the body and whose add is the head atom."""
+    out = []
+    for pred, axioms in src.derived.items():
+        for schema, line in axioms:
+            for v in grounder.ground_schema(schema):
+                head = frozenset([(pred, *v.args)])
+                out.append((GroundVariant(f"{pred}({', '.join(v.args)})", pred, v.args, v.pos, v.neg, head), line))
+    return out
+
+
 def _action_cost(src: DomainSource, grounder: Grounder, v: GroundVariant) -> int:
-    """The integer cost of a ground action, from a constant or a static function of the problem."""
+    """The integer cost of a ground action, from a constant or a static function of the problem
+    (1 in a domain without (total-cost): unit costs)."""
     schema = src.actions[v.schema]
+    if not src.action_costs:
+        return 1
     if schema.cost is None:
         return 0
     term = schema.cost.addend
@@ -192,4 +237,6 @@ def _known_atom(text: str, grounder: Grounder, fluents: set, where) -> tuple:
             raise DomainError(where, f"unknown object '{o}' in {text}")
     if key[0] not in fluents:
         raise DomainError(where, f"{atom_text(key)} is static: no action changes it")
+    if key[0] in grounder.derived:
+        raise DomainError(where, f"{atom_text(key)} is derived: it follows from the other atoms")
     return key

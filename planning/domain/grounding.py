@@ -58,8 +58,10 @@ class GroundVariant:
 class Grounder:
     """Knows the layout's objects, types and static facts; turns formulas into DNF."""
 
-    def __init__(self, problem, fluent_predicates: set[str], where):
+    def __init__(self, problem, fluent_predicates: set[str], where, derived=()):
+        """`derived`: the derived predicates (among the fluents: their atoms are state bits the axioms set)."""
         self.where = where
+        self.derived = set(derived)
         self.language = problem.language
         self.fluents = fluent_predicates
         self.objects = [c.name for c in self.language.constants()]

@@ -3,6 +3,8 @@
 A state is an int whose bit i says whether atom i holds: hashable, compact and
 copied for free. Applying an action is two mask operations (delete, then add;
 adds win, as in PDDL), plus its conditional effects evaluated in the old state.
+In a domain with derived predicates their atoms are bits too, recomputed by the
+layout's axioms (planning.domain.axioms) after every step, consumption and reset.
 """
 from __future__ import annotations
 
@@ -62,6 +64,7 @@ class Model:
     tasks: TaskDistribution = None
     source: object = None           # the parsed DomainSource (tarski schemas and problem)
     static_atoms: frozenset = frozenset()
+    axioms: object = None           # planning.domain.axioms.Axioms where the domain has derived predicates
     atom_index: dict = field(init=False)
     action_index: dict = field(init=False)
 
@@ -76,7 +79,8 @@ class Model:
         for spec, ops in compiled:
             if not ops:
                 raise DomainError(self.files["tasks"], f"task {spec.name} can never be satisfied in layout {self.layout}")
-            tasks.append(Task(len(tasks), spec.type, spec.args, spec.params, spec.probability, tuple(ops)))
+            tasks.append(Task(len(tasks), spec.type, spec.args, spec.params, spec.probability, tuple(ops),
+                              self.axioms))
         self.tasks = TaskDistribution(tasks, self.files["config"])
 
     # ---- sizes and names -------------------------------------------------
@@ -84,6 +88,15 @@ class Model:
     def cost_scale(self) -> float:
         """PDDL cost units per RL reward unit (domain.toml [reward] cost_scale, default 1)."""
         return float(self.config.get("reward", {}).get("cost_scale", 1))
+
+    @property
+    def derived_mask(self) -> int:
+        """The bits of the derived atoms (0 in a domain without derived predicates)."""
+        return 0 if self.axioms is None else self.axioms.mask
+
+    def derive(self, state: int) -> int:
+        """The state with its derived atoms recomputed from the others (the state itself where there are none)."""
+        return state if self.axioms is None else self.axioms(state)
 
     @property
     def n_atoms(self) -> int:
@@ -100,7 +113,8 @@ class Model:
         return [o for r in rooms.values() for o in r]
 
     def state_from_atoms(self, atoms) -> int:
-        """A state from atom texts '(at cup_0 shelf)' or keys; unknown atoms are an error."""
+        """A state from atom texts '(at cup_0 shelf)' or keys; unknown atoms are an error.
+        Derived atoms are recomputed from the others (any listed are ignored)."""
         s = 0
         for a in atoms:
             try:
@@ -110,7 +124,7 @@ class Model:
             if key not in self.atom_index:
                 raise DomainError(self.files["problem"], f"{atom_text(key)} is not a reachable fluent atom of this layout")
             s |= 1 << self.atom_index[key]
-        return s
+        return self.derive(s)
 
     def true_atoms(self, state: int) -> list:
         """The atom keys that hold in a state, in atom order."""
@@ -192,6 +206,9 @@ class Model:
                         add |= ca
                         dele |= cd
                 out.append((a, (state & ~dele) | add, cost))
+        if self.axioms is not None:
+            derive = self.axioms
+            out = [(a, derive(t), c) for a, t, c in out]
         return out
 
     def applicable(self, state: int) -> list[int]:
@@ -205,7 +222,7 @@ class Model:
         """The next state; a DomainError (state untouched) if the action is not applicable."""
         for op in self._variants_of[action]:
             if op.applicable(state):
-                return op.apply(state)
+                return self.derive(op.apply(state))
         raise DomainError(self.actions[action], "not applicable in this state")
 
     # ---- world resets ----------------------------------------------------
@@ -219,7 +236,7 @@ class Model:
             for c in choices:
                 every |= c
             state = (state & ~every) | choices[k]
-        return state
+        return self.derive(state)
 
     def random_walk_states(self, n: int, seed: int, walk: int = 40) -> list[int]:
         """n states (repeats allowed) along seeded random walks of `walk` steps from world resets:

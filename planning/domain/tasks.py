@@ -37,6 +37,7 @@ class Task:
     params: tuple
     probability: float
     bindings: tuple        # Op per existential binding, in object order: goal conj + consumption
+    axioms: object = None  # the model's derived-predicate axioms, recomputed after the consumption
 
     @property
     def name(self) -> str:
@@ -50,7 +51,7 @@ class Task:
         """The state after completion: the first satisfied binding's consumption applied."""
         for o in self.bindings:
             if state & o.pos == o.pos and not state & o.neg:
-                return o.apply(state)
+                return o.apply(state) if self.axioms is None else self.axioms(o.apply(state))
         raise ValueError(f"task {self.name} is not satisfied, nothing to consume")
 
     def __repr__(self) -> str:
