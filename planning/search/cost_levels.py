@@ -5,6 +5,17 @@ heuristic this is Dijkstra and a state is closed at its optimal cost, the first
 time it appears. Duplicate detection is exact (`planning.search.state_table`).
 This is what makes exact optimal planning cheap in Python: the per-state work
 happens inside numpy, at millions of transitions per second.
+
+A time limit is honoured within about a second, also inside a level: under a
+limit a large level's successors are generated in chunks (sorted back into the
+order one call gives, so the search is the same) and its children scored in
+growing chunks, with the clock read between chunks. With `tie_break` the states
+of one f are closed lower h first (f - g, pathmax included), and within one h
+the states generated last first, as Fast Downward breaks ties: on a task where h
+is nearly exact (unit costs, a goal reached along a path of constant f) A* then
+walks that path instead of closing the whole level breadth first. To stay
+batched, each visit of an (f, h) bucket closes twice as many of its states as
+the visit before (1, 2, 4, ...): a dive that fails costs O(log n) visits.
 """
 from __future__ import annotations
 
@@ -15,6 +26,16 @@ import numpy as np
 
 from planning.heuristics.hmax import INF_64 as INF
 from planning.search.state_table import ClosedStates, StateTable, cheapest_unique
+
+SUCCESSOR_CHUNK = 8192    # parents per successor call of a level under a time limit
+H_CHUNK = 256             # states in the first heuristic call under a time limit (doubled while cheap)
+H_CHEAP = 0.05            # seconds: a heuristic call faster than this doubles the next chunk
+TIE_FIRST = 1             # with tie_break: states closed on the first visit of an (f, h) bucket (then 2, 4, ...)
+
+
+class _OutOfTime(Exception):
+    """The deadline passed inside a level."""
+
 
 class CostLevels:
     """Iterate over (f, states, ids, g): states closed at f = g + h, level by level.
@@ -28,15 +49,18 @@ class CostLevels:
     """
 
     def __init__(self, bm, start: int, max_states: int | None = None, time_limit: float | None = None,
-                 heuristic=None, after_step=None):
-        """`after_step(batch) -> batch` rewrites generated states (the joint search completes stages)."""
+                 heuristic=None, after_step=None, tie_break: bool = False):
+        """`after_step(batch) -> batch` rewrites generated states (the joint search completes stages);
+        `tie_break`: within an f, lower h first (each yield then holds one f and one h)."""
         self.bm = bm
         self.h = heuristic
         self.after_step = after_step
         self.max_states = max_states
+        self.tie_break = bool(tie_break) and heuristic is not None
         self.closed = 0
         self.reopened = 0               # closings of a state already closed at a larger g
         self.exhausted = False          # True when every reachable state was closed
+        self.timed_out = False          # True when the time limit stopped the search
         self._closed = ClosedStates(bm.n_words)
         # h of every state evaluated so far: an open state is generated again and
         # again from different parents, and a strong heuristic is the dear part.
@@ -44,26 +68,35 @@ class CostLevels:
         self._parents: list[np.ndarray] = []
         self._actions: list[np.ndarray] = []
         self._version = 0               # bumped by rescore(); each open entry keeps the one it was scored under
+        self._allowance: dict = {}      # with tie_break: states the next visit of an (f, h) bucket closes
         start_row = bm.pack([start])
         f0 = 0 if heuristic is None else int(heuristic(start_row)[0])
         self.f = f0                     # the level being closed: a lower bound on any goal's cost
         # The time limit bounds the search; what the heuristic builds on its first call (pattern
         # databases, kept for later searches) is done before the clock starts.
         self.deadline = None if time_limit is None else time.perf_counter() + time_limit
-        self._open: dict[int, list] = {f0: [(start_row, np.array([-1]), np.array([-1]), np.array([0]), 0)]}
-        self._heap = [f0]
+        # Open states by (f, tie): tie is f - g (their h) with tie_break, else 0 (one bucket per f).
+        start_key = (f0, f0 if self.tie_break else 0)
+        self._open: dict[tuple, list] = {start_key: [(start_row, np.array([-1]), np.array([-1]), np.array([0]), 0)]}
+        self._heap = [start_key]
 
     def __iter__(self):
         while self._heap:
             if self.max_states is not None and self.closed >= self.max_states:
                 return
             if self.deadline is not None and time.perf_counter() > self.deadline:
+                self.timed_out = True
                 return
-            f = heapq.heappop(self._heap)
+            key = heapq.heappop(self._heap)
+            f = key[0]
             if f >= INF:
                 break
             self.f = f
-            rows, parents, actions, g, keys = self._pop(f)
+            try:
+                rows, parents, actions, g, keys = self._pop(key)
+            except _OutOfTime:
+                self.timed_out = True
+                return
             if not len(rows):
                 continue
             ids = np.arange(self.closed, self.closed + len(rows))
@@ -72,8 +105,16 @@ class CostLevels:
             self._actions.append(actions)
             self.reopened += self._closed.close(keys, rows, g)
             yield f, rows, ids, g
-            self._expand(f, rows, ids, g)
+            try:
+                self._expand(f, rows, ids, g)
+            except _OutOfTime:
+                self.timed_out = True
+                return
         self.exhausted = True
+
+    def _check_time(self) -> None:
+        if self.deadline is not None and time.perf_counter() > self.deadline:
+            raise _OutOfTime
 
     def plan_to(self, state_id: int) -> list[int]:
         """The actions from the start to a closed state."""
@@ -92,9 +133,13 @@ class CostLevels:
         self._version += 1
         self._h_table = StateTable(self.bm.n_words)
 
-    def _pop(self, f):
-        """The new states of level f: those scored under an older heuristic whose f has risen go to their new level."""
-        chunks = self._open.pop(f)
+    def _pop(self, key):
+        """The new states of a level (f, tie): those scored under an older heuristic whose f has risen go to
+        their new level."""
+        f = key[0]
+        chunks = self._open.pop(key)
+        if self.tie_break:
+            chunks = self._take(key, chunks)
         stale = [c[:4] for c in chunks if c[4] < self._version]
         now = [c[:4] for c in chunks if c[4] == self._version]
         if stale and self.h is not None:
@@ -108,13 +153,39 @@ class CostLevels:
             now += stale
         return self._new_states(*(np.concatenate(x) for x in zip(*now)))
 
+    def _take(self, key, chunks: list) -> list:
+        """Of an (f, h) bucket, the states generated last, as many as this bucket's allowance (1 at first, doubled
+        each time the search comes back to it); the rest stay open under the same key."""
+        limit = self._allowance.get(key, TIE_FIRST)
+        self._allowance[key] = 2 * limit
+        taken, n = [], 0
+        while chunks and n < limit:
+            c = chunks.pop()
+            room = limit - n
+            if len(c[0]) > room:
+                taken.append(tuple(x[-room:] for x in c[:4]) + (c[4],))
+                chunks.append(tuple(x[:-room] for x in c[:4]) + (c[4],))
+                n = limit
+            else:
+                taken.append(c)
+                n += len(c[0])
+        if chunks:
+            self._open[key] = chunks
+            heapq.heappush(self._heap, key)
+        return taken
+
     def _push(self, f_child, child, parent_ids, action, g_child) -> None:
         """Open states at their levels (infinite f: never)."""
-        for f in np.unique(f_child):
-            if f >= INF:
-                continue
-            sel = f_child == f
-            level = int(f)
+        if self.tie_break:
+            live = f_child < INF
+            pairs = np.stack([f_child[live], f_child[live] - g_child[live]], axis=1)
+            uniq, which = np.unique(pairs, axis=0, return_inverse=True)
+            which = which.reshape(-1)
+            idx = np.flatnonzero(live)
+            groups = [((int(f), int(t)), idx[which == i]) for i, (f, t) in enumerate(uniq)]
+        else:
+            groups = [((int(f), 0), f_child == f) for f in np.unique(f_child) if f < INF]
+        for level, sel in groups:
             if level not in self._open:
                 self._open[level] = []
                 heapq.heappush(self._heap, level)
@@ -133,12 +204,41 @@ class CostLevels:
         h = self._h_table.get(run, pos)
         new = run < 0
         if new.any():
-            h[new] = self.h(rows[new])
+            h[new] = self._h_of(rows[new])
             self._h_table.add(keys[new], rows[new], h[new])
         return h
 
+    def _h_of(self, rows) -> np.ndarray:
+        """The heuristic of rows; under a time limit in chunks, the clock read between them."""
+        if self.deadline is None:
+            return self.h(rows)
+        out = np.empty(len(rows), dtype=np.int64)
+        lo, step = 0, H_CHUNK
+        while lo < len(rows):
+            self._check_time()
+            t = time.perf_counter()
+            out[lo: lo + step] = self.h(rows[lo: lo + step])
+            lo += step
+            if time.perf_counter() - t < H_CHEAP:
+                step *= 2
+        return out
+
+    def _successors(self, rows):
+        """bm.successors of a level; under a time limit a large level in chunks, put back in one call's order."""
+        if self.deadline is None or len(rows) <= SUCCESSOR_CHUNK:
+            return self.bm.successors(rows)
+        parts = []
+        for lo in range(0, len(rows), SUCCESSOR_CHUNK):
+            self._check_time()
+            parent, action, child, cost, group, place = self.bm.successors(rows[lo: lo + SUCCESSOR_CHUNK], keyed=True)
+            parts.append((parent + lo, action, child, cost, group, place))
+        self._check_time()
+        parent, action, child, cost, group, place = (np.concatenate(x) for x in zip(*parts))
+        order = np.lexsort((place, parent, group))
+        return parent[order], action[order], child[order], cost[order]
+
     def _expand(self, f_parent, rows, ids, g) -> None:
-        parent, action, child, cost = self.bm.successors(rows)
+        parent, action, child, cost = self._successors(rows)
         if not len(child):
             return
         if self.after_step is not None:

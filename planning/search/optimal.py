@@ -57,23 +57,36 @@ def uniform_cost_search(model, state: int, task, max_expansions: int | None = No
 
 
 def optimal_plan(bm, state: int, task, max_states: int | None = None,
-                 time_limit: float | None = None, heuristic: str = "pdb") -> SearchResult:
+                 time_limit: float | None = None, heuristic: str | None = None,
+                 tie_break: bool | None = None) -> SearchResult:
     """An optimal plan for one task: A* by f-levels, expanding each level in one numpy call.
 
-    heuristic: "pdb" (the layout's pattern databases, planning.heuristics.pdb; LM-cut for a layout whose
-    rooms do not name its locations), "lmcut" or "hmax"; all admissible, so the cost is the
-    same as uniform_cost_search's, many times faster (the plan may be another of equal cost).
+    heuristic: "pdb" (the layout's pattern databases, planning.heuristics.pdb; LM-cut, reported once on
+    stderr, for a layout whose rooms do not name its locations), "lmcut", "hmax" or "blind"; all
+    admissible, so the cost is the same as uniform_cost_search's, many times faster (the plan may be
+    another of equal cost). The default (None) is "pdb", or "lmcut" on a model with derived predicates
+    (where pattern databases are refused: planning.heuristics).
     `task` is anything with `bindings` (a DNF of Ops), e.g. a task with an extra clause.
     plan is None if no plan exists (complete=True) or a limit stopped the search (complete=False).
     """
-    return optimal_plans(bm, state, [task], max_states, time_limit, heuristic)[0]
+    return optimal_plans(bm, state, [task], max_states, time_limit, heuristic, tie_break=tie_break)[0]
 
 
 PREFER_TRIES = 16
+TIE_BREAK = False
+"""optimal_plans' default for tie_break: off, so that the restaurant's committed results replay as they were (lower h
+first picks another of the equally cheap plans for about one task in eight there); pass tie_break=True."""
+
+
+def default_heuristic(model) -> str:
+    """The one-task search's heuristic when none is named: pattern databases, or LM-cut where the model has
+    derived predicates."""
+    return "pdb" if getattr(model, "axioms", None) is None else "lmcut"
 
 
 def optimal_plans(bm, state: int, goals: list, max_states: int | None = None,
-                  time_limit: float | None = None, heuristic: str = "pdb", prefer=None) -> list[SearchResult]:
+                  time_limit: float | None = None, heuristic: str | None = None, prefer=None,
+                  tie_break: bool | None = None) -> list[SearchResult]:
     """An optimal plan for each of several goals from one A* (e.g. a task with each of ten clauses).
 
     The heuristic is the minimum over the goals still unreached of their admissible estimates,
@@ -86,13 +99,15 @@ def optimal_plans(bm, state: int, goals: list, max_states: int | None = None,
     `prefer(k, plan) -> bool` breaks ties among goal k's optimal plans: of the goal states closed at
     k's optimal cost on that level (at most PREFER_TRIES of them), the first whose plan it accepts is
     returned; if it accepts none, the first. Without it, any optimal plan.
+    `tie_break`: within an f, lower h first (CostLevels; default TIE_BREAK): far fewer expansions where h
+    is nearly exact, the same costs. A time limit is honoured within about a second.
     """
     from planning.domain.batched import goal_arrays, satisfied
     from planning.search.cost_levels import CostLevels
 
     if not goals:
         return []
-    nearest = goals_heuristic(bm, goals, heuristic)
+    nearest = goals_heuristic(bm, goals, heuristic or default_heuristic(bm.model))
     open_ = np.ones(len(goals), dtype=bool)
 
     def h(batch):
@@ -100,7 +115,10 @@ def optimal_plans(bm, state: int, goals: list, max_states: int | None = None,
 
     arrays = [goal_arrays(bm, g) for g in goals]
     out: list[SearchResult | None] = [None] * len(goals)
-    levels = CostLevels(bm, state, max_states, time_limit, heuristic=h)
+    if tie_break is None:
+        tie_break = TIE_BREAK
+    blind = (heuristic or default_heuristic(bm.model)) == "blind"      # Dijkstra: no h to score or break ties by
+    levels = CostLevels(bm, state, max_states, time_limit, heuristic=None if blind else h, tie_break=tie_break)
     for _, rows, ids, g in levels:
         reached = False
         for k in np.flatnonzero(open_):
@@ -123,26 +141,30 @@ def optimal_plans(bm, state: int, goals: list, max_states: int | None = None,
 _RELAXED: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()   # per BatchedModel: its HMax and LMCut
 
 
-def goals_heuristic(bm, goals: list, heuristic: str = "pdb"):
+def goals_heuristic(bm, goals: list, heuristic: str | None = None):
     """h(batch, open) -> (N,) an admissible cost to the nearest of the goals marked open (a bool mask);
     the tables behind it are built once per model. PDBs: the minimum of the goals' estimates; LM-cut
-    and h_max: one computation for the open goals' conjunctions joined by "or"; "pdb+lmcut": the larger
-    of the two."""
-    from planning.heuristics import choose
+    and h_max: one computation for the open goals' conjunctions joined by "or" (on the model's
+    relaxed_view where it has derived predicates); "pdb+lmcut": the larger of the two; blind: 0."""
+    from planning.heuristics import choose, relaxed_view
     from planning.heuristics.hmax import HMax, goal_literals
     from planning.heuristics.lmcut import LMCut
     from planning.heuristics.pdb import pattern_databases
 
+    heuristic = heuristic or default_heuristic(bm.model)
     if "+" in heuristic:                     # the maximum of admissible estimates: admissible, and as good as the best
         parts = [goals_heuristic(bm, goals, h) for h in heuristic.split("+")]
         return lambda batch, open_: np.max([h(batch, open_) for h in parts], axis=0)
     heuristic = choose(heuristic, bm.model, "task")
+    if heuristic == "blind":
+        return lambda batch, open_: np.zeros(len(batch), dtype=np.int64)
     if heuristic == "pdb":
         pdb = pattern_databases(bm.model, bm.n_words)
         return lambda batch, open_: pdb.per_goal(batch, goals)[:, open_].min(1)
     if bm not in _RELAXED:
-        hmax = HMax(bm.model, bm)
-        _RELAXED[bm] = {"hmax": hmax, "lmcut": LMCut(bm.model, bm, hmax)}
+        view = relaxed_view(bm.model)
+        hmax = HMax(view, bm)
+        _RELAXED[bm] = {"hmax": hmax, "lmcut": LMCut(view, bm, hmax)}
     h = _RELAXED[bm]["hmax" if heuristic == "hmax" else "lmcut"]
     conjs = [goal_literals(bm.model, g) for g in goals]
     return lambda batch, open_: h(batch, [c for k in np.flatnonzero(open_) for c in conjs[k]])
