@@ -1,0 +1,11 @@
+; A 2 x 3 grid:  a1 a2 a3 / b1 b2 b3; two boxes; a3 and b3 store them.
+(define (problem grid)
+  (:domain warehouse)
+  (:objects a1 a2 a3 b1 b2 b3 - cell box1 box2 - box)
+  (:init (robot-at a1) (hand-free) (at box1 a2) (at box2 b1)
+         (next a1 a2) (next a2 a3) (next b1 b2) (next b2 b3) (next a1 b1) (next a2 b2) (next a3 b3)
+         (next a2 a1) (next a3 a2) (next b2 b1) (next b3 b2) (next b1 a1) (next b2 a2) (next b3 a3)
+         (storage a3) (storage b3)
+         (= (total-cost) 0))
+  (:goal (stored))
+  (:metric minimize (total-cost)))

@@ -1,0 +1,5 @@
+(define (problem small)
+  (:domain mailroom)
+  (:objects d1 d2 - desk letter_0 - letter)
+  (:init (robot-at d1) (hand-free) (at letter_0 d1))
+  (:goal (and)))
