@@ -6,9 +6,9 @@ The layouts are the folder's (domain.toml [layouts]). Per layout the rows are
 those every domain has: the myopic oracle (Fast Downward, the reference of every
 improvement) and ours, the clairvoyant oracle for K = 2 and 3, and the learned
 values, greedy and guided, of each horizon: one run per Q-network checkpoint
-`checkpoints/rl-<horizon>-<layout>-seed<N>.pt` trained on this domain (seed 0,
-not yet trained, where there is none); the one-task GNN rows only where their
-models `checkpoints/gnn-<variant>-<layout>-seed<N>.pt` exist. Results files have
+`checkpoints/<domain>-rl-<horizon>-<layout>-seed<N>.pt` (the name `learning.export`
+gives it; seed 0, not yet trained, where there is none); the one-task GNN rows only
+where their models `checkpoints/<domain>-gnn-<variant>-<layout>-seed<N>.pt` exist. Results files have
 the names `experiments.evaluate` gives them by default (the domain's name first).
 The tables are Table 5.2's and Table A.4's columns without the thesis's, the
 held-out split, the share of the clairvoyant saving and the §5.4.3 statistics
@@ -48,14 +48,14 @@ def results_name(domain: str, run_name: str, layout: str) -> str:
 
 
 def rl_seeds(domain: str, layout: str, horizon: str) -> list[int]:
-    """The seeds of `checkpoints/rl-<horizon>-<layout>-seed<N>.pt` trained on this domain (its PDDL name as the
-    checkpoint records it; a checkpoint that records none is counted)."""
+    """The seeds of `checkpoints/<domain>-rl-<horizon>-<layout>-seed<N>.pt` trained on this domain (its PDDL name
+    as the checkpoint records it; a checkpoint that records none is counted)."""
     from learning.qnet import read_checkpoint
     from planning.errors import DomainError
 
     seeds = []
-    for path in Path("checkpoints").glob(f"rl-{horizon}-{layout}-seed*.pt"):
-        m = re.fullmatch(rf"rl-{re.escape(horizon)}-{re.escape(layout)}-seed(\d+)", path.stem)
+    for path in Path("checkpoints").glob(f"{domain}-rl-{horizon}-{layout}-seed*.pt"):
+        m = re.fullmatch(rf"{re.escape(domain)}-rl-{re.escape(horizon)}-{re.escape(layout)}-seed(\d+)", path.stem)
         if not m:
             continue
         try:
@@ -67,10 +67,10 @@ def rl_seeds(domain: str, layout: str, horizon: str) -> list[int]:
     return sorted(seeds)
 
 
-def gnn_seeds(layout: str, variant: str) -> list[int]:
+def gnn_seeds(domain: str, layout: str, variant: str) -> list[int]:
     out = []
-    for path in Path("checkpoints").glob(f"gnn-{variant}-{layout}-seed*.pt"):
-        m = re.fullmatch(rf"gnn-{variant}-{re.escape(layout)}-seed(\d+)", path.stem)
+    for path in Path("checkpoints").glob(f"{domain}-gnn-{variant}-{layout}-seed*.pt"):
+        m = re.fullmatch(rf"{re.escape(domain)}-gnn-{variant}-{re.escape(layout)}-seed(\d+)", path.stem)
         if m:
             out.append(int(m.group(1)))
     return sorted(out)
@@ -81,14 +81,14 @@ def rows(folder: str, domain: str, layout: str) -> list[Row]:
     d = ("--domain", folder)
 
     def rl_run(agent, horizon, s):
-        ckpt = f"checkpoints/rl-{horizon}-{layout}-seed{s}.pt"
+        ckpt = f"checkpoints/{domain}-rl-{horizon}-{layout}-seed{s}.pt"
         train = (f"python -m learning.dqn --domain {folder} --layout {layout} --horizon {horizon} --seed {s} && "
                  f"python -m learning.export runs/dqn/{domain}-{layout}-{horizon}-seed{s}")
         return Run(agent, layout, (*d, "--checkpoint", ckpt),
                    results_name(domain, f"{agent}-{horizon}-{layout}-seed{s}", layout), s, ckpt, train)
 
     def gnn_run(agent, variant, s):
-        model = f"checkpoints/gnn-{variant}-{layout}-seed{s}.pt"
+        model = f"checkpoints/{domain}-gnn-{variant}-{layout}-seed{s}.pt"
         return Run(agent, layout, (*d, "--model", model),
                    results_name(domain, f"{agent}-{variant}-{layout}-seed{s}", layout), s, model, None)
 
@@ -105,7 +105,7 @@ def rows(folder: str, domain: str, layout: str) -> list[Row]:
                            template=rl_run(agent, horizon, "$N")))
     for variant, key, label in (("faithful", "gnn", "One-task GNN"),
                                 ("augmented", "gnn-augmented", "One-task GNN (augmented)")):
-        seeds = gnn_seeds(layout, variant)
+        seeds = gnn_seeds(domain, layout, variant)
         if seeds:
             out.append(Row(key, label, layout, tuple(gnn_run("gnn-native", variant, s) for s in seeds),
                            seeded=True, template=gnn_run("gnn-native", variant, "$N")))

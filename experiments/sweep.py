@@ -155,11 +155,13 @@ def train_items(args, grid: dict, settings: dict) -> tuple[list, list, list]:
         for axis in grid:
             file_name(p[axis], f"--{axis.replace('_', '-')}", "value")
         file_in(args.runs, name, "--runs", "a run folder's name")
-        if args.deploy:
+        if args.deploy:           # learning.export's and experiments.evaluate's default names
             short = rl_name({**settings, **p}, extra)
-            items[-1]["deploy"] = {"checkpoint": f"{args.checkpoints}/rl-{short}.pt",
-                                   "figures": f"{args.results}/training-{short}.json",
-                                   "greedy": f"{args.results}/rl-greedy-{short}.json",
+            pddl = compile_domain(args.domain, p["layout"]).name
+            first = "" if pddl == "restaurant" else f"{file_name(pddl, '--domain', 'domain name')}-"
+            items[-1]["deploy"] = {"checkpoint": f"{args.checkpoints}/{first}rl-{short}.pt",
+                                   "figures": f"{args.results}/{first}training-{short}.json",
+                                   "greedy": f"{args.results}/{first}rl-greedy-{short}.json",
                                    "sequences": cli.parse_ids(args.sequences),
                                    **({"force": True} if args.force else {})}
         names.append(name)

@@ -13,7 +13,9 @@
   by a tie (0.01) or more: a diverged network's values are so large that float16's
   rounding moves them by more than their action gaps. It keeps the run's step or epoch, evaluation, settings and the
   sha256 of the best.pt it came from. Default: checkpoints/rl-<horizon>-<layout>-seed<N>.pt,
-  checkpoints/gnn-<faithful|augmented>-<layout>-seed<N>.pt.
+  checkpoints/gnn-<faithful|augmented>-<layout>-seed<N>.pt; for a domain other than the restaurant
+  (whose committed names stay) the domain's PDDL name comes first: checkpoints/<domain>-rl-….pt and
+  results/<domain>-training-….json.
 - The key figures of a Q-learning run are what Appendix A.2 reports of it, read
   from its metrics.jsonl: at 50k, 100k, 250k and 500k steps (or the nearest logged
   step before), the success rate over the last 100 training tasks, the selected Q,
@@ -230,12 +232,15 @@ def default_names(run: Path, gnn: bool) -> tuple[str, str]:
         name = (f"gnn-{'augmented' if augmented else 'faithful'}-{file_name(p.get('layout'), best, 'layout')}"
                 f"-seed{file_name(cfg.get('seed'), best, 'config.seed')}")
     else:
-        cfg = read_checkpoint(best).get("config", {})
+        p = read_checkpoint(best)
+        cfg = p.get("config", {})
         for field in ("horizon", "layout", "seed", *(("target_bound",) if bound_suffix(cfg) else ())):
             file_name(cfg.get(field), best, f"config.{field}")
         name = f"rl-{rl_name(cfg)}"
-    return (str(file_in("checkpoints", f"{name}.pt", best, "its settings")),
-            str(file_in("results", f"training-{name.removeprefix('rl-')}.json", best, "its settings")))
+    domain = p.get("domain") or (p.get("signature") or {}).get("domain")
+    prefix = "" if domain in (None, "restaurant") else f"{file_name(domain, best, 'domain')}-"
+    return (str(file_in("checkpoints", f"{prefix}{name}.pt", best, "its settings")),
+            str(file_in("results", f"{prefix}training-{name.removeprefix('rl-')}.json", best, "its settings")))
 
 
 def rl_name(cfg: dict, varied: str = "") -> str:

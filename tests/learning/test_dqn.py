@@ -268,7 +268,7 @@ def test_target_bound_caps_the_targets_and_keeps_the_run_apart(minimal, tmp_path
     bound.step = 1
     bound.save()
     (bound.out / "best.pt").write_bytes((bound.out / "last.pt").read_bytes())
-    assert default_names(bound.out, gnn=False)[0] == "checkpoints/rl-anticipatory-grid-seed0-bound-return.pt"
+    assert default_names(bound.out, gnn=False)[0] == "checkpoints/minimal-rl-anticipatory-grid-seed0-bound-return.pt"
     again = Trainer(small_config(minimal, tmp_path / "b-anticipatory", steps=0, demo_tasks=20, hidden=32,
                                  horizon="anticipatory"), progress=False)
     with pytest.raises(DomainError, match="target_bound"):

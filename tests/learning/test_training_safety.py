@@ -314,3 +314,14 @@ def test_the_minimal_example_trains_and_resumes_through_the_one_resume_path(tmp_
         rows = [json.loads(line) for line in (tmp_path / f"{horizon}-seed0" / "metrics.jsonl").read_text().splitlines()]
         steps = [r["step"] if "step" in r else r["eval"]["step"] for r in rows]
         assert steps and steps == sorted(steps) and len(steps) == len({(s, "eval" in r) for s, r in zip(steps, rows)})
+
+
+def test_another_domains_export_is_named_after_it(run, tmp_path, monkeypatch):
+    """A run of the minimal domain exports to checkpoints/minimal-rl-….pt and results/minimal-training-….json,
+    so a layout of the same name in another domain never lands on the restaurant's committed files."""
+    from learning.export import default_names
+
+    monkeypatch.chdir(tmp_path)
+    checkpoint, figures = default_names(run, gnn=False)
+    assert checkpoint == "checkpoints/minimal-rl-myopic-grid-seed0.pt"
+    assert figures == "results/minimal-training-myopic-grid-seed0.json"
