@@ -433,6 +433,7 @@ class BatchedQ:
                     segs.append((d, p, vals))
         live = sorted({d for d, _, _ in segs})
         self.n_live = len(live)
+        self.segs, self.live, self._net = segs, live, net       # for the compiled engine (NativeQ)
         self.ws_h = f(np.hstack([np.hstack([aug(ws[:, (1 + d) * H:(2 + d) * H], bs[(1 + d) * H:(2 + d) * H]),
                                             const]) for d in live]))      # each live head's part + 1
         off = dict(zip(live, np.cumsum([0] + [tab.sizes[d] for d in live])[:-1].tolist()))
@@ -552,12 +553,154 @@ class BatchedQ:
         return out @ self.prob
 
 
+class NativeQ:
+    """`BatchedQ.q_max` and `v_ap` compiled (learning/_qnet.c): the same function, each state valued on its own.
+
+    A BLAS product's rounding depends on the batch (its size and a row's place
+    in it), so BatchedQ's value of a state moves in its last bits (up to ~2e-5
+    on the restaurant) with the states it is valued with. Here every state's
+    sums run in a fixed order, so its value is a function of the state alone,
+    the same in any batch and on any x86 machine (no fused multiply-adds): a
+    search may value states one flush at a time, at a few microseconds each,
+    with no per-call overhead. It differs from BatchedQ's by float32 rounding
+    only, at most ~3e-5 on the restaurant (tests/planning/test_bn_kernel.py).
+    Segments whose valid values number fewer than two add exactly 0 (A - A),
+    so only the others are computed, and only the live heads they need. As a
+    value is a function of its arguments, the values computed are kept (the
+    memo) for the searches that follow: consecutive tasks of a sequence revisit
+    many states (a fifth to a quarter of them on the restaurant).
+    """
+
+    def __init__(self, batched: "BatchedQ", lib, memo: bool = True):
+        """`memo`: keep every value computed (q_max per (state, task), V_AP per state) for later calls, up to
+        2**MEMO_LOG2 / 2 entries (then it starts over): exact, as a value depends on its arguments alone."""
+        import ctypes
+
+        b, enc, net = batched, batched.enc, batched._net
+        model = enc.model
+        g = lambda t: t.detach().numpy().astype(np.float64)
+        f32 = lambda a: np.ascontiguousarray(a, dtype=np.float32)
+        f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)
+        i32 = lambda a: np.ascontiguousarray(a, dtype=np.int32)
+        lin = [m for m in net.encoder if isinstance(m, nn.Linear)]
+        n, H, hid = enc.n_atoms, b.H, b.hid
+        W = self.W = max(1, -(-n // 64))
+        words = lambda masks: np.frombuffer(b"".join(int(m).to_bytes(8 * W, "little") for m in masks) or
+                                            bytes(8 * W), dtype="<u8").copy()
+        w1 = g(lin[0].weight).T
+        ws, bs = g(net.from_state.weight).T, g(net.from_state.bias)
+        cols = [(s, d, v) for s, (d, p, vals) in enumerate(b.segs) for v in vals.tolist()]
+        var_cols = [np.flatnonzero(row).tolist() for row in b.s_var]
+        tasks = list(model.tasks)
+        goal0, goaln, gpos, gneg = [], [], [], []
+        for t in tasks:
+            goal0.append(len(gpos))
+            goaln.append(len(t.bindings))
+            gpos += [o.pos for o in t.bindings]
+            gneg += [o.neg for o in t.bindings]
+        self.arrays = a = {
+            "w1": f32(w1[:n]), "b1t": f32(g(lin[0].bias)[None] + b.task_part),
+            "w2": f32(g(lin[1].weight).T), "b2": f32(g(lin[1].bias)),
+            "wv1": f32(ws[:, :H]), "bv1": f64(bs[:H]), "wv": f64(g(net.value.weight)[0]),
+            "wh": f32(np.stack([ws[:, (1 + d) * H:(2 + d) * H] for d in b.live]) if b.live else np.zeros(1)),
+            "bh": f32(np.stack([bs[(1 + d) * H:(2 + d) * H] for d in b.live]) if b.live else np.zeros(1)),
+            "seg_head": i32(b.seg_head if len(b.segs) else np.zeros(1)),
+            "seg_pref": f32(b.seg_pref[:, :H] if len(b.segs) else np.zeros(1)),
+            "col_seg": i32([s for s, _, _ in cols] or [0]),
+            "col_w": f32(np.stack([g(net.out[d].weight)[v] for _, d, v in cols]) if cols else np.zeros(1)),
+            "col_b": f32([g(net.out[d].bias)[v] for _, d, v in cols] or [0.0]),
+            "var_pos": words([o.pos for o in model.ops]), "var_neg": words([o.neg for o in model.ops]),
+            "var_col0": i32(np.cumsum([0] + [len(c) for c in var_cols])[:-1]),
+            "var_coln": i32([len(c) for c in var_cols]), "var_cols": i32(sum(var_cols, []) or [0]),
+            "goal0": i32(goal0), "goaln": i32(goaln), "goal_pos": words(gpos), "goal_neg": words(gneg)}
+        P, I = ctypes.c_void_p, ctypes.c_int64
+
+        class Spec(ctypes.Structure):
+            _fields_ = ([(k, I) for k in ("W", "n_atoms", "hid", "H", "n_live", "n_seg", "n_col", "n_var",
+                                         "n_tasks")]
+                        + [(k, P) for k in ("w1", "b1t", "w2", "b2", "wv1", "bv1", "wv")] + [("bv", ctypes.c_double)]
+                        + [(k, P) for k in ("wh", "bh", "seg_head", "seg_pref", "col_seg", "col_w", "col_b",
+                                            "var_pos", "var_neg", "var_col0", "var_coln", "var_cols", "goal0",
+                                            "goaln", "goal_pos", "goal_neg", "memo")])
+
+        self.spec = Spec(W=W, n_atoms=n, hid=hid, H=H, n_live=len(b.live), n_seg=len(b.segs), n_col=len(cols),
+                         n_var=len(model.ops), n_tasks=len(tasks), bv=float(g(net.value.bias)[0]),
+                         **{k: v.ctypes.data for k, v in a.items()})
+        self.lib, self.ctx = lib, ctypes.addressof(self.spec)
+        self.spec.memo = self._memo = lib.qnet_memo_new(W, MEMO_LOG2) if memo else None
+        self.fn = ctypes.cast(lib.qnet_q_max, ctypes.c_void_p).value     # the search's bn_native_fn
+        self.support = i32(enc.support)
+        self.prob = f64(enc.task_prob[enc.support])
+
+    def __del__(self):
+        if getattr(self, "_memo", None):
+            self.lib.qnet_memo_free(self._memo)
+            self._memo = None
+
+    def memo_stats(self) -> dict:
+        """Entries held, hits and misses of the memo so far."""
+        import ctypes
+
+        out = (ctypes.c_int64 * 3)()
+        self.lib.qnet_memo_stats(self._memo, out)
+        return {"entries": out[0], "hits": out[1], "misses": out[2]}
+
+    def words(self, states) -> np.ndarray:
+        W = self.W
+        return np.frombuffer(b"".join(s.to_bytes(8 * W, "little") for s in states) or bytes(8 * W), dtype="<u8")
+
+    def q_max(self, states, task: int) -> np.ndarray:
+        """max_a Q(s, task, a) per int state (a task index)."""
+        out, words = np.zeros(len(states)), self.words(states)      # kept alive through the call
+        if len(states) and self.lib.qnet_q_max(self.ctx, int(task), words.ctypes.data, len(states),
+                                                self.W, out.ctypes.data):
+            raise MemoryError("qnet_q_max failed")
+        return out
+
+    def v_ap(self, states) -> np.ndarray:
+        """Σ_τ P(τ) max_a Q(s, τ, a) over the task support, per int state."""
+        out, words = np.zeros(len(states)), self.words(states)
+        if len(states) and self.lib.qnet_v_ap(self.ctx, words.ctypes.data, len(states), self.W,
+                                               self.support.ctypes.data, self.prob.ctypes.data, len(self.support),
+                                               out.ctypes.data):
+            raise MemoryError("qnet_v_ap failed")
+        return out
+
+
+_QNET_LIB = None
+MEMO_LOG2 = 20                     # the memo's slots (32 bytes each in the restaurant): 2**20, half of them used at most
+
+
+def _qnet_lib():
+    """The compiled learning/_qnet.c (planning.search.native), or None (no compiler, or QNET_NATIVE=0)."""
+    global _QNET_LIB
+    if _QNET_LIB is None:
+        import ctypes
+
+        from planning.search import native
+
+        so = native.load(Path(__file__).with_name("_qnet.c"), "QNET_NATIVE")
+        if so is not None:
+            P, I = ctypes.c_void_p, ctypes.c_int64
+            so.qnet_q_max.restype = ctypes.c_int
+            so.qnet_q_max.argtypes = [P, I, P, I, I, P]
+            so.qnet_v_ap.restype = ctypes.c_int
+            so.qnet_v_ap.argtypes = [P, P, I, I, P, P, I, P]
+            so.qnet_memo_new.restype = P
+            so.qnet_memo_new.argtypes = [I, I]
+            so.qnet_memo_free.argtypes = [P]
+            so.qnet_memo_stats.argtypes = [P, P]
+        _QNET_LIB = so or False
+    return _QNET_LIB or None
+
+
 class ValueFunction:
     """A trained Q-network bound to a layout's encoding: greedy actions, q_max and v_ap, batched.
 
     Inference runs on numpy snapshots of the weights taken at construction:
     `NumpyQ` for every action's Q (q_values, greedy), `BatchedQ` for the maxima
-    the searches ask for (q_max, v_ap).
+    the searches ask for (q_max, v_ap); `native_q_max` hands the Bellman–Novelty
+    search the compiled q_max (`NativeQ`), built on first use.
     """
 
     def __init__(self, net: FactoredQNet, enc: Encoding, gamma: float = 0.97):
@@ -565,6 +708,20 @@ class ValueFunction:
         self.net, self.enc, self.gamma = net, enc, gamma
         self.fast = NumpyQ(net)
         self.batched = BatchedQ(net, enc)
+        self._native = None
+
+    @property
+    def native(self) -> "NativeQ | None":
+        """The compiled engine, or None where there is no C compiler (or QNET_NATIVE=0)."""
+        if self._native is None:
+            lib = _qnet_lib()
+            self._native = NativeQ(self.batched, lib) if lib is not None else False
+        return self._native or None
+
+    def native_q_max(self, task):
+        """For `planning.search.bellman_novelty`: an object whose `fn` and `ctx` are the compiled q_max of
+        this network (`bn_native_fn` of planning/search/_bn.c, task = task.index), or None."""
+        return self.native
 
     def q_values(self, states, task) -> np.ndarray:
         """(N, actions) Q of (state, task) for every ground action and AUTO; -inf where invalid."""

@@ -50,22 +50,45 @@ the rounding of a batched value, which may depend on the batch):
   call, for the terminals eligible under β·C_myo only (the others are never chosen);
 - a child of a novelty-expanded node has its width checked on the pairs that
   involve the atoms its action added (`NoveltyTables.width`'s exact fast path).
+
+Two implementations of the loop, the same turn for turn. For a compiled model
+(`planning.domain.model.Model` without derived predicates) and a task with goal
+bindings the loop runs in C (`_bn.c`, built on first use with the system C
+compiler like the LM-cut kernel, `planning.search.native`): its successors
+are Model.successors' in the same order (checked against it on each model's
+first search), and its heaps, counters, dedup tables, width cache and value
+batches are the Python loop's, so with the same value it makes the same
+choices bit for bit (tests/planning/test_bn_kernel.py). A value that offers
+a compiled q_max (`value.native_q_max(task)`, e.g. the Q-network's,
+`learning.qnet`) is called from C at each flush with exactly the states the
+flush needs (`prefetch` is then moot: a compiled value's result for a state
+does not depend on the batch, and its per-call cost is nil); any other value
+is called back in Python with the batches above. Elsewhere, or with
+`ANTICIPATORY_BN_NATIVE=0` or no C compiler, the Python loop below runs.
+`kernel=` ("auto", "c", "python") and `native_value=` force a path. The loop
+before the kernel is kept verbatim in `planning.search.bellman_novelty_reference`.
 """
 from __future__ import annotations
 
+import ctypes
 import heapq
 import itertools
 import time
+import weakref
 from dataclasses import dataclass, field
+from numbers import Integral
+from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
+from planning.search import native
 from planning.search.novelty import NoveltyTables
 
 BELLMAN_TURNS = 3                 # Bellman turns per novelty turn (Algorithm 3, lines 6-16)
 DEPTH_CAP = 20                    # d_max of Table A.3
 PREFETCH = 64                     # most states per q_max call when a flush speculatively values grandchildren
+NATIVE_PREFETCH = 0               # the same with a compiled value (see _search_c)
 INF = float("inf")
 
 
@@ -154,7 +177,8 @@ def _goal_test(task):
 def bellman_novelty_search(model, state: int, task, value, *, budget: int, beta: float,
                            depth_cap: int = DEPTH_CAP, reference_plan: list | None = None,
                            gamma: float | None = None, scale: float | None = None,
-                           trace: list | None = None, prefetch: int = PREFETCH) -> BNResult:
+                           trace: list | None = None, prefetch: int = PREFETCH, kernel: str = "auto",
+                           native_value: bool = True) -> BNResult:
     """Algorithms 3-4: the plan of the most-prepared terminal of `task` from `state` within β·C_myo.
 
     model: anything with `successors(state) -> [(action, next_state, cost)]`,
@@ -166,9 +190,11 @@ def bellman_novelty_search(model, state: int, task, value, *, budget: int, beta:
     turn: ("bellman"|"novelty", state, depth) per expansion, ("forfeit",) or
     ("stale", state, depth) for a lost Bellman turn. prefetch: the most states
     a value call takes when it speculatively values grandchildren (0: off).
+    kernel: "auto" (the C loop where it applies, else Python), "c" (an error
+    where it does not) or "python"; native_value: call a compiled q_max of the
+    value where it has one (False: the value's Python q_max, with the batches
+    of the Python loop).
     """
-    t_start = time.perf_counter()
-    clock = time.perf_counter
     if gamma is None:
         gamma = getattr(value, "gamma", None)
         if gamma is None:
@@ -177,6 +203,27 @@ def bellman_novelty_search(model, state: int, task, value, *, budget: int, beta:
         scale = float(getattr(model, "cost_scale", 1))      # a stand-in model without one: PDDL units
     if beta < 1:
         raise ValueError(f"beta must be at least 1 (got {beta}): the reference must stay eligible")
+    if kernel not in ("auto", "c", "python"):
+        raise ValueError(f"kernel must be 'auto', 'c' or 'python', not {kernel!r}")
+    if kernel != "python":
+        k = _kernel_for(model, task, state)
+        if k is not None:
+            return _search_c(k, model, state, task, value, budget=budget, beta=beta, depth_cap=depth_cap,
+                             reference_plan=reference_plan, gamma=gamma, scale=scale, trace=trace,
+                             prefetch=prefetch, native_value=native_value)
+        if kernel == "c":
+            raise RuntimeError("the compiled search does not apply here (no C compiler, "
+                               "ANTICIPATORY_BN_NATIVE=0, or not a compiled model and task)")
+    return _search_python(model, state, task, value, budget=budget, beta=beta, depth_cap=depth_cap,
+                          reference_plan=reference_plan, gamma=gamma, scale=scale, trace=trace, prefetch=prefetch)
+
+
+def _search_python(model, state: int, task, value, *, budget: int, beta: float, depth_cap: int,
+                   reference_plan: list | None, gamma: float, scale: float, trace: list | None,
+                   prefetch: int) -> BNResult:
+    """The loop in Python (Algorithms 3-4), for any model and value."""
+    t_start = time.perf_counter()
+    clock = time.perf_counter
     stats = BNStats()
     goal = _goal_test(task)
     successors = model.successors
@@ -244,20 +291,9 @@ def bellman_novelty_search(model, state: int, task, value, *, budget: int, beta:
     c_myo = None
     if reference_plan is not None:
         t0 = clock()
-        s, G, c, prefix = state, 0.0, 0, []
-        if not goal(s):
-            for a in reference_plan:
-                k = model.action_cost[a]
-                G -= gamma ** len(prefix) * k / scale
-                s = model.apply(s, a)
-                c += k
-                prefix.append(a)
-                if goal(s):
-                    break
-            else:
-                raise ValueError(f"the reference plan does not complete {getattr(task, 'name', task)}")
+        s, d, G, c, prefix = _reference_terminal(model, state, task, goal, reference_plan, gamma, scale)
         t_sim += clock() - t0
-        admit_terminal(s, len(prefix), G, c, -1, None, "reference", prefix)
+        admit_terminal(s, d, G, c, -1, None, "reference", prefix)
         c_myo = c
 
     # -- line 4: ENQUEUE the root (a root that already completes τ is a terminal with the empty plan)
@@ -382,35 +418,64 @@ def bellman_novelty_search(model, state: int, task, value, *, budget: int, beta:
             expand(nid, True)
 
     # -- line 19: SELECTTERMINAL -----------------------------------------------------------------
+    stats.expansions, stats.nodes = e, len(n_state)
+    stats.value_seconds, stats.value_calls, stats.value_states = t_val, value_calls, value_states
+    stats.simulator_seconds, stats.novelty_seconds = t_sim, t_nov
+    return _select(terminals, c_myo, beta, task, value.v_ap, stats, lambda t: _plan_of(t, n_parent, n_action),
+                   t_start)
+
+
+def _reference_terminal(model, state: int, task, goal, reference_plan: list, gamma: float, scale: float):
+    """Lines 2-3: the myopic reference plan replayed from the root and cut where τ first holds:
+    (state, depth, G, cost, prefix)."""
+    s, G, c, prefix = state, 0.0, 0, []
+    if not goal(s):
+        for a in reference_plan:
+            k = model.action_cost[a]
+            G -= gamma ** len(prefix) * k / scale
+            s = model.apply(s, a)
+            c += k
+            prefix.append(a)
+            if goal(s):
+                break
+        else:
+            raise ValueError(f"the reference plan does not complete {getattr(task, 'name', task)}")
+    return s, len(prefix), G, c, prefix
+
+
+def _select(terminals: list, c_myo, beta: float, task, v_ap, stats: BNStats, plan_of, t_start: float) -> BNResult:
+    """Line 19, SELECTTERMINAL: V_AP of the eligible terminals' post-consumption states in one call, then Eq. 4.1.
+
+    terminals: (state, depth, G, cost, parent, action, source, plan) in discovery order; v_ap: the
+    value's V_AP; plan_of(terminal): its action list. Fills the stats' choice, terminal counts and times
+    (simulator and value times add).
+    """
+    clock = time.perf_counter
     if c_myo is None and terminals:
         c_myo = min(t[3] for t in terminals)
     bound = beta * c_myo if c_myo is not None else None
     eligible = [i for i, t in enumerate(terminals) if _within(t[3], bound)] if terminals else []
     t0 = clock()
     after = {i: task.consume(terminals[i][0]) for i in eligible}
-    t_sim += clock() - t0
+    stats.simulator_seconds += clock() - t0
     v_cache: dict = {}
     need = list(dict.fromkeys(after.values()))
     if need:
         t0 = clock()
-        v = value.v_ap(need)
-        t_val += clock() - t0
-        value_calls += 1
-        value_states += len(need)
+        v = v_ap(need)
+        stats.value_seconds += clock() - t0
+        stats.value_calls += 1
+        stats.value_states += len(need)
         v_cache = dict(zip(need, np.asarray(v, dtype=float).tolist()))
     out = [Terminal(t[6], t[3], t[1], t[2], t[0], v_cache[after[i]] if i in after else None)
            for i, t in enumerate(terminals)]
     chosen = select_terminal(out, c_myo, beta)
     plan = None
     if chosen is not None:
-        plan = _plan_of(terminals[chosen], n_parent, n_action)
+        plan = plan_of(terminals[chosen])
         stats.source, stats.v_ap = out[chosen].source, out[chosen].v_ap
         stats.cost, stats.depth = out[chosen].cost, out[chosen].depth
-
-    stats.c_myo, stats.terminals, stats.eligible, stats.expansions = c_myo, len(terminals), len(eligible), e
-    stats.nodes = len(n_state)
-    stats.value_seconds, stats.value_calls, stats.value_states = t_val, value_calls, value_states
-    stats.simulator_seconds, stats.novelty_seconds = t_sim, t_nov
+    stats.c_myo, stats.terminals, stats.eligible = c_myo, len(terminals), len(eligible)
     stats.seconds = time.perf_counter() - t_start
     return BNResult(plan, stats, out)
 
@@ -430,3 +495,274 @@ def _plan_of(terminal, n_parent, n_action) -> list:
 def _n_atoms(model, state: int) -> int:
     atoms = getattr(model, "atoms", None)
     return len(atoms) if atoms is not None else state.bit_length()
+
+
+# ---- the compiled loop (_bn.c) ---------------------------------------------------------------------------
+_P = ctypes.c_void_p
+_I64 = ctypes.c_int64
+
+
+class _ModelSpec(ctypes.Structure):
+    """bn_model of _bn.c: the successor index as arrays, and the current task's goal."""
+
+    _fields_ = [("W", _I64), ("n_atoms", _I64), ("n_actions", _I64), ("n_entries", _I64),
+                ("e_pos", _P), ("e_neg", _P), ("e_add", _P), ("e_del", _P),
+                ("e_action", _P), ("e_cost", _P), ("e_multi", _P), ("e_cond0", _P), ("e_condn", _P),
+                ("c_pos", _P), ("c_neg", _P), ("c_add", _P), ("c_del", _P),
+                ("n_always", _I64), ("trig0", _P), ("n_goals", _I64), ("g_pos", _P), ("g_neg", _P)]
+
+
+class _Stats(ctypes.Structure):
+    _fields_ = [(k, _I64) for k in ("expansions", "bellman", "novelty", "forfeited", "stale", "skipped", "dropped",
+                                    "repushed", "generated", "nodes", "terminals", "value_calls", "value_states",
+                                    "states", "trace")] + [(k, ctypes.c_double) for k in ("t_sim", "t_nov", "t_val")]
+
+
+_LIB = None
+_MODELS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+MAX_WORDS = 64                     # _bn.c's limit: 4,096 atoms
+
+
+def _lib():
+    """The compiled loop, or None (no compiler, or ANTICIPATORY_BN_NATIVE=0)."""
+    global _LIB
+    if _LIB is None:
+        so = native.load(Path(__file__).with_name("_bn.c"), "ANTICIPATORY_BN_NATIVE")
+        if so is not None:
+            P, I64, D = _P, _I64, ctypes.c_double
+            so.bn_new.restype = P
+            so.bn_new.argtypes = [P, I64, I64, P, D, I64, I64, ctypes.c_int, ctypes.c_int]
+            so.bn_set_native.argtypes = [P, P, P]
+            so.bn_free.argtypes = [P]
+            so.bn_start.restype = ctypes.c_int
+            so.bn_start.argtypes = [P, P, ctypes.c_int, P, I64, D, I64]
+            so.bn_run.restype = ctypes.c_int
+            so.bn_run.argtypes = [P]
+            so.bn_get_stats.argtypes = [P, P]
+            so.bn_need.restype = I64
+            so.bn_need.argtypes = [P, ctypes.POINTER(P), ctypes.POINTER(P)]
+            so.bn_add_value_time.argtypes = [P, D]
+            so.bn_get_terminals.argtypes = [P, P, P, P, P, P, P]
+            so.bn_plan.restype = I64
+            so.bn_plan.argtypes = [P, ctypes.c_int32, P, I64]
+            so.bn_get_trace.argtypes = [P, P, P, P]
+            so.bn_successors.restype = I64
+            so.bn_successors.argtypes = [P, P, P, P, P, P, I64]
+        _LIB = so or False
+    return _LIB or None
+
+
+def _ptr(a: np.ndarray) -> int:
+    return a.ctypes.data
+
+
+class _Kernel:
+    """A compiled model's successor index for _bn.c (arrays kept alive here), and the goals of its tasks."""
+
+    def __init__(self, model):
+        W = self.W = max(1, -(-len(model.atoms) // 64))
+        self.n_atoms, self.n_actions = len(model.atoms), len(model.actions)
+        words = lambda masks: np.frombuffer(b"".join(m.to_bytes(8 * W, "little") for m in masks) or b"",
+                                            dtype="<u8").copy() if masks else np.zeros(W, "<u8")
+        groups = model.trigger_groups()
+        order = list(groups.get(-1, []))
+        trig0 = [0] * (self.n_atoms + 1)
+        for i in range(self.n_atoms):
+            trig0[i] = len(order)
+            order += groups.get(i, [])
+        trig0[self.n_atoms] = len(order)
+        counts: dict = {}
+        for a in model.op_action:
+            counts[a] = counts.get(a, 0) + 1
+        ops = [model.ops[v] for v in order]
+        acts = [model.op_action[v] for v in order]
+        conds, cond0, condn = [], [], []
+        for op in ops:
+            cond0.append(len(conds))
+            condn.append(len(op.cond))
+            conds += list(op.cond)
+        a = self.arrays = {
+            "e_pos": words([o.pos for o in ops]), "e_neg": words([o.neg for o in ops]),
+            "e_add": words([o.add for o in ops]), "e_del": words([o.dele for o in ops]),
+            "e_action": np.array(acts, np.int32), "e_cost": np.array([model.action_cost[x] for x in acts], np.int64),
+            "e_multi": np.array([counts[x] > 1 for x in acts], np.uint8),
+            "e_cond0": np.array(cond0, np.int32), "e_condn": np.array(condn, np.int32),
+            "c_pos": words([c[0] for c in conds]), "c_neg": words([c[1] for c in conds]),
+            "c_add": words([c[2] for c in conds]), "c_del": words([c[3] for c in conds]),
+            "trig0": np.array(trig0, np.int32)}
+        if not len(a["e_action"]):
+            a["e_action"], a["e_cost"] = np.zeros(1, np.int32), np.zeros(1, np.int64)
+            a["e_multi"], a["e_cond0"], a["e_condn"] = np.zeros(1, np.uint8), np.zeros(1, np.int32), np.zeros(1, np.int32)
+        self.spec = _ModelSpec(W=W, n_atoms=self.n_atoms, n_actions=self.n_actions, n_entries=len(ops),
+                               n_always=len(groups.get(-1, [])),
+                               **{k: _ptr(v) for k, v in a.items()})
+        self.goals: dict = {}
+
+    def words(self, states) -> np.ndarray:
+        W = self.W
+        return np.frombuffer(b"".join(s.to_bytes(8 * W, "little") for s in states), dtype="<u8").copy()
+
+    def ints(self, words: np.ndarray, n: int) -> list:
+        raw, k = words.tobytes(), 8 * self.W
+        return [int.from_bytes(raw[i * k:(i + 1) * k], "little") for i in range(n)]
+
+    def with_goal(self, task) -> _ModelSpec:
+        """The spec with this task's goal (any binding's (pos, neg) holds)."""
+        g = self.goals.get(task.index)
+        if g is None:
+            g = self.goals[task.index] = (self.words([b.pos for b in task.bindings]),
+                                          self.words([b.neg for b in task.bindings]), len(task.bindings))
+        spec = _ModelSpec.from_buffer_copy(self.spec)
+        spec.g_pos, spec.g_neg, spec.n_goals = _ptr(g[0]), _ptr(g[1]), g[2]
+        return spec
+
+    def successors(self, lib, state: int, task) -> list:
+        """[(action, next state, cost, completes τ)] of a state as the compiled loop computes them."""
+        spec = self.with_goal(task)
+        one = np.ones(1)
+        h = lib.bn_new(ctypes.addressof(spec), 0, 0, _ptr(one), 1.0, 0, 0, 0, 0)
+        try:
+            cap = self.n_actions + 1
+            act, cost = np.zeros(cap, np.int32), np.zeros(cap, np.int64)
+            nxt, hit = np.zeros(cap * self.W, "<u8"), np.zeros(cap, np.uint8)
+            s = self.words([state])                   # kept alive through the call
+            n = lib.bn_successors(h, _ptr(s), _ptr(act), _ptr(cost), _ptr(nxt), _ptr(hit), cap)
+            return list(zip(act[:n].tolist(), self.ints(nxt, n), cost[:n].tolist(), hit[:n].astype(bool).tolist()))
+        finally:
+            lib.bn_free(h)
+
+
+def _kernel_for(model, task, state: int):
+    """The compiled model for this search, or None where the C loop does not apply."""
+    lib = _lib()
+    if lib is None or not getattr(task, "bindings", None) or not hasattr(task, "index"):
+        return None
+    k = _MODELS.get(model) if _weakrefable(model) else None
+    if k is None:
+        k = _build_kernel(lib, model, task, state)
+        if k is None:
+            return None
+        if _weakrefable(model):
+            _MODELS[model] = k
+    if k is False or state.bit_length() > 64 * k.W:
+        return None
+    return k
+
+
+def _weakrefable(model) -> bool:
+    try:
+        weakref.ref(model)
+        return True
+    except TypeError:
+        return False
+
+
+def _build_kernel(lib, model, task, state: int):
+    """A _Kernel for a compiled model whose successors it reproduces exactly, else False (None: not a model)."""
+    from planning.domain.model import Model
+    if not isinstance(model, Model) or type(model).successors is not Model.successors \
+            or "successors" in vars(model):
+        return None
+    if getattr(model, "axioms", None) is not None or len(model.atoms) > 64 * MAX_WORDS \
+            or not all(isinstance(c, Integral) for c in model.action_cost):
+        return False
+    try:
+        k = _Kernel(model)
+        probes = [model.init, state] + model.random_walk_states(24, 0, walk=12)
+    except Exception:                       # noqa: BLE001 - anything unexpected: the Python loop
+        return False
+    for s in probes:                        # the compiled successors must be Model.successors, in order
+        want = [(a, t, c, bool(task.satisfied(t))) for a, t, c in model.successors(s)]
+        if k.successors(lib, s, task) != want:
+            return False
+    return k
+
+
+def _search_c(k: _Kernel, model, state: int, task, value, *, budget: int, beta: float, depth_cap: int,
+              reference_plan: list | None, gamma: float, scale: float, trace: list | None, prefetch: int,
+              native_value: bool) -> BNResult:
+    """Algorithms 3-4 with the loop in C; the reference replay and the selection as in Python."""
+    t_start = time.perf_counter()
+    clock = time.perf_counter
+    lib = _lib()
+    stats = BNStats()
+    goal = _goal_test(task)
+    cap = max(depth_cap, 0)
+    gpow = np.array([gamma ** d for d in range(cap + 1)], dtype=np.float64)
+    fast = None
+    if native_value and callable(getattr(value, "native_q_max", None)):
+        fast = value.native_q_max(task)          # None where the value has no compiled form here
+    spec = k.with_goal(task)
+    h = lib.bn_new(ctypes.addressof(spec), int(budget), int(depth_cap), _ptr(gpow), float(scale),
+                   int(prefetch) if fast is None else NATIVE_PREFETCH, int(task.index), 1, int(trace is not None))
+    if not h:
+        raise MemoryError("the compiled Bellman–Novelty search could not allocate its tables")
+    try:
+        if fast is not None:
+            lib.bn_set_native(h, fast.fn, fast.ctx)
+        terminals: list = []
+        c_myo = None
+        ref = None
+        if reference_plan is not None:
+            t0 = clock()
+            ref = _reference_terminal(model, state, task, goal, reference_plan, gamma, scale)
+            stats.simulator_seconds += clock() - t0
+            c_myo = ref[3]
+        root = k.words([state])
+        rs = k.words([ref[0]]) if ref is not None else root
+        if lib.bn_start(h, _ptr(root), int(ref is not None), _ptr(rs), ref[1] if ref else 0,
+                        ref[2] if ref else 0.0, ref[3] if ref else 0) < 0:
+            raise MemoryError("the compiled Bellman–Novelty search ran out of memory")
+        rc = lib.bn_run(h)
+        ps, pq = _P(), _P()
+        while rc == 1:                             # a Python value: value the flush's states, resume
+            n = lib.bn_need(h, ctypes.byref(ps), ctypes.byref(pq))
+            need = k.ints(np.ctypeslib.as_array(ctypes.cast(ps, ctypes.POINTER(ctypes.c_uint64)), (n * k.W,)), n)
+            t0 = clock()
+            q = np.asarray(value.q_max(need, task), dtype=np.float64)
+            lib.bn_add_value_time(h, clock() - t0)
+            np.ctypeslib.as_array(ctypes.cast(pq, ctypes.POINTER(ctypes.c_double)), (n,))[:] = q
+            rc = lib.bn_run(h)
+        if rc < 0:
+            raise MemoryError("the compiled Bellman–Novelty search ran out of memory")
+        st = _Stats()
+        lib.bn_get_stats(h, ctypes.byref(st))
+        nt = st.terminals
+        t_states, t_depth, t_G = np.zeros(max(nt, 1) * k.W, "<u8"), np.zeros(max(nt, 1), np.int32), np.zeros(max(nt, 1))
+        t_cost, t_parent, t_action = np.zeros(max(nt, 1), np.int64), np.zeros(max(nt, 1), np.int32), np.zeros(max(nt, 1), np.int32)
+        lib.bn_get_terminals(h, _ptr(t_states), _ptr(t_depth), _ptr(t_G), _ptr(t_cost), _ptr(t_parent), _ptr(t_action))
+        t_s = k.ints(t_states, nt)
+        for i, (s, d, G, c, par, act) in enumerate(zip(t_s, t_depth[:nt].tolist(), t_G[:nt].tolist(),
+                                                      t_cost[:nt].tolist(), t_parent[:nt].tolist(),
+                                                      t_action[:nt].tolist())):
+            if i == 0 and ref is not None:
+                terminals.append((s, d, G, c, -1, None, "reference", ref[4]))
+            elif par < 0:
+                terminals.append((s, d, G, c, -1, None, "search", []))      # the root completes τ
+            else:
+                terminals.append((s, d, G, c, par, act, "search", None))
+        if trace is not None and st.trace:
+            kinds, tr_s, tr_d = np.zeros(st.trace, np.int8), np.zeros(st.trace * k.W, "<u8"), np.zeros(st.trace, np.int32)
+            lib.bn_get_trace(h, _ptr(kinds), _ptr(tr_s), _ptr(tr_d))
+            names = ("bellman", "novelty", "forfeit", "stale")
+            for kind, s, d in zip(kinds.tolist(), k.ints(tr_s, st.trace), tr_d.tolist()):
+                trace.append((names[kind],) if kind == 2 else (names[kind], s, d))
+        buf = np.zeros(max(cap, 1) + 1, np.int32)
+
+        def plan_of(t):
+            if t[7] is not None:
+                return list(t[7])
+            n = lib.bn_plan(h, t[4], _ptr(buf), len(buf))
+            return buf[:n][::-1].tolist() + [t[5]]
+
+        stats.expansions, stats.bellman_expansions, stats.novelty_expansions = st.expansions, st.bellman, st.novelty
+        stats.forfeited, stats.stale, stats.novelty_skipped = st.forfeited, st.stale, st.skipped
+        stats.novelty_dropped, stats.novelty_repushed = st.dropped, st.repushed
+        stats.generated, stats.nodes = st.generated, st.nodes
+        stats.value_seconds, stats.value_calls, stats.value_states = st.t_val, st.value_calls, st.value_states
+        stats.simulator_seconds += st.t_sim
+        stats.novelty_seconds = st.t_nov
+        v_ap = getattr(fast, "v_ap", None) or value.v_ap        # the compiled value's V_AP with its q_max
+        return _select(terminals, c_myo, beta, task, v_ap, stats, plan_of, t_start)
+    finally:
+        lib.bn_free(h)
