@@ -2,18 +2,30 @@
 
 Per task, the candidates are
   * the myopic optimal plan (our exact A* by default), cut at the first state where the task holds;
-  * up to `max_clauses` (10) plans that solve the task together with one preparatory clause of the
-    dataset generator's clause library (`learning.gnn_dataset.ClauseLibrary`: an object clean, a
-    container filled, the jar brought to where water is used, the machine water restored), among
-    the clauses false now and costing at least the library's minimum (h_max) whose places all lie
-    in the candidate region: the locations the agent stands at along the myopic plan plus those
-    one move away. A clause's places are the locations it names and, for every object it names,
-    where that object is now (through containers; a held object is where the agent is). The
-    clauses are tried cheapest first (h_max), then in library order; each is planned optimally
-    (task AND clause).
+  * up to `max_clauses` (10) plans that solve the task together with one preparatory clause, planned
+    optimally (task AND clause). Which clauses, the *candidate generator*:
+      - a domain whose domain.toml declares `[gnn.candidates]` (the restaurant does): the *focused*
+        generator of `learning.gnn_candidates`, prior work's own (`_generate_focused_augmentations`
+        of the authors' evaluation): the region is the locations on the myopic plan's path plus those
+        within the table's hops of the base hop (the smallest move cost), the relevant objects those
+        the plan names, those in the region and the declared used-up resources, and the clauses the
+        table's families give over them in sorted object order; the first `max_clauses` are planned,
+        with no cost sort (the table's `max_clauses` unless --max-clauses says otherwise);
+      - a domain without the table: the clause library of the dataset generator
+        (`learning.gnn_dataset.ClauseLibrary`: an object clean, a container filled, the jar brought to
+        where water is used, the machine water restored), among the clauses false now and costing at
+        least the library's minimum (h_max) whose places all lie in the candidate region: the
+        locations the agent stands at along the myopic plan plus those one move away. A clause's places
+        are the locations it names and, for every object it names, where that object is now (through
+        containers; a held object is where the agent is). The clauses are tried cheapest first (h_max),
+        then in library order. (On the restaurant every location is one move from every other, so this
+        region is the whole map and the cut at 10 drops the clauses that need a fill: the reason the
+        restaurant declares the focused generator.)
 Each candidate is scored by its cost plus the model's Ĉ_AP of its post-consumption end state (one
-batched forward pass for all of them); the lowest score wins, and the myopic plan is kept unless
-another scores strictly lower.
+batched forward pass for all of them; γ = 1); the lowest score wins, and the myopic plan is kept unless
+another scores strictly lower (the authors' loop: an augmented candidate replaces the incumbent only
+on strict improvement). The configuration a results file records names the generator
+(`candidate_generator`).
 
 Augmented candidates are executed and charged in full. The runner stops a plan where the task
 first holds, so a candidate is kept only if the task first holds at its last action: an optimal
@@ -240,15 +252,15 @@ class GNNNativePlanner(Planner):
         from oracles.myopic import PLANNERS
 
         p.add_argument("--model", required=True, help="GNN checkpoint (learning.gnn_train's best.pt)")
-        p.add_argument("--max-clauses", type=int, default=MAX_CLAUSES,
-                       help="augmented candidates per task (default: %(default)s)")
+        p.add_argument("--max-clauses", type=int, default=None,
+                       help="augmented candidates per task (default: [gnn.candidates] max_clauses, else %s)" % MAX_CLAUSES)
         p.add_argument("--reference", default="internal", choices=PLANNERS,
                        help="planner of the myopic candidate (default: %(default)s, exact)")
         p.add_argument("--time-limit", type=float, default=TIME_LIMIT,
                        help="seconds per search: the myopic plan, or all the augmented ones together (default: %(default)s)")
         p.add_argument("--candidates", default=None,
                        help="the candidate cache file, shared by runs that plan alike (default: "
-                            "runs/gnn/candidates/DOMAIN-LAYOUT-REFERENCE-cMAX.jsonl; 'none': plan every task)")
+                            "runs/gnn/candidates/DOMAIN-LAYOUT-REFERENCE[-focused]-cMAX.jsonl; 'none': plan every task)")
         p.add_argument("--exact-labels", action="store_true",
                        help="also label every scored candidate with the exact C_AP (oracles.labelling), for the record")
 
@@ -257,14 +269,19 @@ class GNNNativePlanner(Planner):
         return cls(model, args.model, args.max_clauses, args.reference, args.time_limit, args.exact_labels,
                    candidates=args.candidates)
 
-    def __init__(self, model, gnn, max_clauses: int = MAX_CLAUSES, reference: str = "internal",
+    def __init__(self, model, gnn, max_clauses: int | None = None, reference: str = "internal",
                  time_limit: float = TIME_LIMIT, exact_labels: bool = False, estimate=None, candidates: str | None = "none"):
         """`estimate(states) -> Ĉ_AP array`: the scorer (default: the checkpoint's GNNValue.c_ap).
+        `max_clauses`: None for the domain's [gnn.candidates] max_clauses (else MAX_CLAUSES).
         `candidates`: the CandidateCache file (None: the default one; "none": no cache)."""
         from oracles.myopic import MyopicOracle
 
+        from learning.gnn_candidates import FocusedCandidates
         from learning.gnn_dataset import ClauseLibrary, DatasetConfig
 
+        self.focused = FocusedCandidates.from_model(model)
+        if max_clauses is None:
+            max_clauses = self.focused.max_clauses if self.focused is not None else MAX_CLAUSES
         if max_clauses < 0:
             raise DomainError("--max-clauses", f"must be at least 0, not {max_clauses}")
         self.model, self.max_clauses, self.time_limit = model, int(max_clauses), float(time_limit)
@@ -276,9 +293,17 @@ class GNNNativePlanner(Planner):
         self.max_actions = int(model.config.get("stream", {}).get("max_actions", 64))
         self.exact_labels = exact_labels
         self._labeller = None
-        self.config = {**(model_summary(gnn) if estimate is None else {"model": str(gnn)}),
-                       "max_clauses": self.max_clauses, "min_clause_cost": self.min_cost,
-                       "clauses": len(self.library), "region": "myopic plan locations + one move",
+        if self.focused is None:
+            generator = {"max_clauses": self.max_clauses, "min_clause_cost": self.min_cost,
+                         "clauses": len(self.library), "region": "myopic plan locations + one move",
+                         "candidate_generator": {"kind": "clause-library", "source": "learning.gnn_dataset.ClauseLibrary "
+                                                 "(no [gnn.candidates] in domain.toml)", "order": "h_max, then library order"}}
+        else:
+            generator = {"max_clauses": self.max_clauses,
+                         "region": f"myopic plan locations + those within {self.focused.hops} base hop(s) "
+                                   f"({self.focused.hops * self.focused.base_hop})",
+                         "candidate_generator": {**self.focused.describe(), "order": "sorted objects, families in order; no cost sort"}}
+        self.config = {**(model_summary(gnn) if estimate is None else {"model": str(gnn)}), **generator,
                        "selection": "cost + C_AP estimate, lowest; the myopic plan unless strictly beaten",
                        "reference": self.reference.config}
         self.run_name = checkpoint_run_name(self.name, gnn, "gnn-") + ("" if reference == "internal" else f"-{reference}")
@@ -289,10 +314,15 @@ class GNNNativePlanner(Planner):
         self.hmax = HMax(model, self.bm)
         from learning.gnn_dataset import JOINT_HEURISTIC
 
-        settings = {"reference": reference, "max_clauses": self.max_clauses, "min_clause_cost": self.min_cost,
-                    "clauses": len(self.library), "joint_heuristic": JOINT_HEURISTIC}
+        if self.focused is None:
+            settings = {"reference": reference, "max_clauses": self.max_clauses, "min_clause_cost": self.min_cost,
+                        "clauses": len(self.library), "joint_heuristic": JOINT_HEURISTIC}
+        else:
+            settings = {"reference": reference, "max_clauses": self.max_clauses, "joint_heuristic": JOINT_HEURISTIC,
+                        "generator": self.focused.describe()}
         if candidates is None:
-            candidates = f"runs/gnn/candidates/{model.name}-{model.layout}-{reference}-c{self.max_clauses}.jsonl"
+            kind = "" if self.focused is None else "-focused"
+            candidates = f"runs/gnn/candidates/{model.name}-{model.layout}-{reference}{kind}-c{self.max_clauses}.jsonl"
         self.cache = None if candidates == "none" else CandidateCache(model, candidates, settings)
         self.config["candidates"] = None if self.cache is None else str(self.cache.path)
         self.config["joint_heuristic"] = JOINT_HEURISTIC
@@ -322,12 +352,15 @@ class GNNNativePlanner(Planner):
         path = self._path(state, plan)
         return self._first_hold(path, task) == len(plan) and clause.satisfied(path[-1])
 
-    def clause_plans(self, state: int, task, myopic_path: list[int]) -> tuple[list, int, int, bool]:
-        """[(clause text, plan)] of the augmented candidates, how many were dropped, how many clauses
-        were in the region, and whether every search finished (no time limit cut one short)."""
-        from learning.gnn_dataset import JOINT_HEURISTIC, JointGoal
-        from planning.search.optimal import optimal_plans
+    def proposed(self, state: int, myopic_path: list[int], plan=None) -> tuple[list, int]:
+        """The clauses planned ([ClauseGoal], in order, at most max_clauses) and how many the generator
+        proposed. `plan`: the myopic plan's actions (default: recovered from the path)."""
+        if self.focused is not None:
+            from learning.gnn_candidates import actions_along
 
+            found = self.focused.clauses(state, actions_along(self.model, myopic_path) if plan is None else plan,
+                                         myopic_path)
+            return [ClauseGoal(c.pos, c.neg, c.text) for c in found[: self.max_clauses]], len(found)
         region = self.region.around(myopic_path)
         eligible = self.library.eligible(state, self.hmax, self.bm, self.min_cost)
         inside = [k for k in eligible if self.region.places(state, [*self.library.clauses[k][0],
@@ -338,9 +371,19 @@ class GNNNativePlanner(Planner):
             cost = self.hmax.literal_costs(self.bm.pack([state]), lits)[0]
             relaxed = {k: int(cost[ls].max()) for k, ls in zip(inside, lits)}
             inside.sort(key=lambda k: (relaxed[k], k))
-        chosen = inside[: self.max_clauses]
-        clauses = [ClauseGoal(*self.library.masks[k], self.library.text(k)) for k in chosen]
-        joint = optimal_plans(self.bm, state, [JointGoal(task, *self.library.masks[k]) for k in chosen],
+        return [ClauseGoal(*self.library.masks[k], self.library.text(k)) for k in inside[: self.max_clauses]], len(inside)
+
+    def clause_plans(self, state: int, task, myopic_path: list[int], plan=None) -> tuple[list, int, int, bool]:
+        """[(clause text, plan)] of the augmented candidates, how many were dropped, how many clauses
+        the generator proposed (before the cap), and whether every search finished (no time limit cut
+        one short). `plan`: the myopic plan's actions (default: recovered from the path)."""
+        from learning.gnn_dataset import JOINT_HEURISTIC, JointGoal
+        from planning.search.optimal import optimal_plans
+
+        clauses, proposed = self.proposed(state, myopic_path, plan)
+        if not clauses:
+            return [], 0, proposed, True
+        joint = optimal_plans(self.bm, state, [JointGoal(task, c.bindings[0].pos, c.bindings[0].neg) for c in clauses],
                               time_limit=self.time_limit, heuristic=JOINT_HEURISTIC,      # one A* for all of them
                               prefer=lambda i, plan: self._in_full(state, plan, task, clauses[i]))
         out, dropped, complete = [], 0, all(r.complete for r in joint)
@@ -353,7 +396,7 @@ class GNNNativePlanner(Planner):
                 dropped += 1
                 continue
             out.append((clause.name, list(plan)))
-        return out, dropped, len(inside), complete
+        return out, dropped, proposed, complete
 
     def _clause_then_task(self, state: int, task, clause) -> tuple[list | None, bool]:
         """The clause's optimal plan, then the task's from there (for a joint plan that completes the

@@ -9,9 +9,9 @@ Every results file, checkpoint, dataset and cache records `identity(model)`:
 so that a file made from other domain content is recognised, and the error can say
 which file changed. The files are those a layout is compiled from: `domain.pddl`,
 `tasks.pddl`, the layout's problem and `domain.toml` (as parsed TOML, so a comment or
-a reformatting changes nothing, less the tool settings of `SETTINGS_TABLES`); another
-layout's problem file is not part of it. The
-canonical sequences are checked task by task where they are used.
+a reformatting changes nothing, less the tool settings of `SETTINGS_TABLES`: [training],
+[search], [gnn]); another layout's problem file is not part of it. The canonical
+sequences are checked task by task where they are used.
 """
 from __future__ import annotations
 
@@ -31,10 +31,11 @@ def _digest(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
-SETTINGS_TABLES = ("training", "search")
+SETTINGS_TABLES = ("training", "search", "gnn")
 """domain.toml tables that configure a tool rather than define the world: the learner's and the
-search's defaults. Runs record the values they used in their own configuration, so these tables
-are left out of the digest (an edit of them does not make every result and cache stale)."""
+search's defaults, and the GNN baseline's candidate generator ([gnn.candidates]). Runs record the
+values they used in their own configuration, so these tables are left out of the digest (an edit
+of them does not make every result and cache stale)."""
 
 
 @lru_cache(maxsize=32)
