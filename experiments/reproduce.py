@@ -6,7 +6,7 @@
 Without --report-only it first runs, through the agent registry and the
 runner (`planning.world.runner.evaluate`: resumable, progress bars), every
 evaluation a table row expects whose checkpoint exists and whose results file
-does not (or is unfinished, or predates charged failures); runs another process
+does not (or is unfinished, or lacks sequences the row needs); runs another process
 is writing, runs whose agent is not registered and runs without a checkpoint
 are left, and listed with their commands. --discount-sweep also trains the
 Table A.5 runs (long). Then, and alone with --report-only (well under a
@@ -218,7 +218,7 @@ FIGURE_TEXT = {
             "from its V_A ≈ 3.5, V_B ≈ 8.6).",
     "5.3": "Figure 5.3: greedy against value-guided deployment of the myopic and anticipatory values, both layouts. "
            "Points: mean over checkpoint seeds; bars: min–max over seeds; open squares: the thesis. Greedy costs "
-           "include failed tasks (charged where the file says so).",
+           "include failed tasks, each completed by the fallback and charged what it executed plus its completion.",
     "5.4": "Figure 5.4: improvement over each layout's myopic oracle per agent, ours beside the thesis's.",
     "A.1": "Figure A.1: training diagnostics: success over the last 100 tasks, task return, selected Q and TD "
            "target; median over seeds with the min–max band.",
@@ -323,9 +323,10 @@ def report(layouts, ctx: Context, out: Path, command: str) -> str:
         "(500 tasks) unless a column says otherwise. A learned row is the mean ± sample standard deviation over "
         "its checkpoint seeds (a single seed shows no ±); *seeds* says how many of the thesis's seeds we have. "
         "*Improvement* is `(C_oracle − C) / C_oracle` against Fast Downward's myopic oracle on the same sequences. "
-        "A failed task is charged what it executed plus the optimal completion from where it was left wherever "
-        "the file has that accounting; files written before it count executed cost only and are flagged (†: a "
-        "figure built on a flagged file; the flags are in the provenance table). The thesis draws its own "
+        "A failed task is completed by the fallback: its optimal completion from where it was left is executed, "
+        "so the next task starts where a finished task would leave the world, and it is charged what it "
+        "executed plus that completion (the rows marked *thesis protocol* abandon it instead, as the thesis "
+        "did). †: a figure built on a flagged file; the flags are in the provenance table. The thesis draws its own "
         "canonical sequences and trains 500k steps, so its figures are a reference, not the same tasks.",
         "",
         "## Table 5.2: main results",
@@ -430,8 +431,8 @@ def domain_report(layouts, ctx: Context, out: Path, command: str) -> str:
         "Conventions. Costs are PDDL cost units per task over the ten canonical 50-task sequences of a layout "
         "unless a column says otherwise. A learned row is the mean ± sample standard deviation over its "
         "checkpoint seeds. *Improvement* is `(C_oracle − C) / C_oracle` against Fast Downward's myopic oracle on "
-        "the same sequences. A failed task is charged what it executed plus the optimal completion from where "
-        "it was left (†: a figure built on a flagged file; the flags are in the provenance table).",
+        "the same sequences. A failed task is completed by the fallback, its optimal completion executed and "
+        "charged (†: a figure built on a flagged file; the flags are in the provenance table).",
         "",
         "## Layouts",
         "",
