@@ -11,7 +11,7 @@
  *   (-inf where none is valid), V alone where the task's goal already holds.
  * Every state is computed on its own, with its sums in a fixed order, so its value does not
  * depend on the batch it comes in (unlike a BLAS product, whose rounding does); states are
- * taken in blocks of BLOCK only so that they share each weight row while it is in cache.
+ * taken in blocks of up to BLOCK only so that they share each weight row while it is in cache.
  * Built with -ffp-contract=off (planning/search/native.py): no fused multiply-adds, so the
  * value is the same on every x86 machine whatever the vector width.
  */
@@ -20,7 +20,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define BLOCK 4
+#define BLOCK 8
 
 typedef struct {
     int64_t W, n_atoms, hid, H, n_live, n_seg, n_col, n_var, n_tasks;
@@ -100,25 +100,39 @@ typedef double vd8 __attribute__((vector_size(64), aligned(8)));
 
 typedef float vf8 __attribute__((vector_size(32), aligned(4)));
 
-#define DENSE4(P, C1, C2, C3, C4, T, V, WS, L, CV, SW)                                               \
+/* One function per row count 1..BLOCK; C: output vectors per pass, fewer the more rows (registers). */
+#if defined(__AVX512F__)
+#define CWIDE 2                    /* 32 vector registers */
+#else
+#define CWIDE 1
+#endif
+#define DENSE8(P, C1, T, V, WS, L, CV, SW)                                                           \
     DENSE(P##1, 1, C1, T, V, WS, L, CV, SW)                                                          \
-    DENSE(P##2, 2, C2, T, V, WS, L, CV, SW)                                                          \
-    DENSE(P##3, 3, C3, T, V, WS, L, CV, SW)                                                          \
-    DENSE(P##4, 4, C4, T, V, WS, L, CV, SW)                                                          \
+    DENSE(P##2, 2, 4, T, V, WS, L, CV, SW)                                                           \
+    DENSE(P##3, 3, 2, T, V, WS, L, CV, SW)                                                           \
+    DENSE(P##4, 4, 2, T, V, WS, L, CV, SW)                                                           \
+    DENSE(P##5, 5, CWIDE, T, V, WS, L, CV, SW)                                                       \
+    DENSE(P##6, 6, CWIDE, T, V, WS, L, CV, SW)                                                       \
+    DENSE(P##7, 7, CWIDE, T, V, WS, L, CV, SW)                                                       \
+    DENSE(P##8, 8, CWIDE, T, V, WS, L, CV, SW)                                                       \
     static void P(const float *x, int64_t nb, int64_t in, const WS *w, const T *bias, int64_t outn, T *acc) { \
         switch (nb) {                                                                                \
             case 1: P##1(x, in, w, bias, outn, acc); break;                                          \
             case 2: P##2(x, in, w, bias, outn, acc); break;                                          \
             case 3: P##3(x, in, w, bias, outn, acc); break;                                          \
-            default: P##4(x, in, w, bias, outn, acc); break;                                         \
+            case 4: P##4(x, in, w, bias, outn, acc); break;                                          \
+            case 5: P##5(x, in, w, bias, outn, acc); break;                                          \
+            case 6: P##6(x, in, w, bias, outn, acc); break;                                          \
+            case 7: P##7(x, in, w, bias, outn, acc); break;                                          \
+            default: P##8(x, in, w, bias, outn, acc); break;                                         \
         }                                                                                            \
     }
 
 #define AS_F16(p) (*(const vf16 *)(p))
 #define F8_TO_D8(p) __builtin_convertvector(*(const vf8 *)(p), vd8)
 #define SCALAR_F(x) (x)
-DENSE4(dense_f, 4, 4, 2, 2, float, vf16, float, 16, AS_F16, SCALAR_F)     /* float32 weights, float32 sums */
-DENSE4(dense_d, 8, 4, 2, 2, double, vd8, float, 8, F8_TO_D8, SCALAR_F)    /* float32 weights, float64 sums */
+DENSE8(dense_f, 4, float, vf16, float, 16, AS_F16, SCALAR_F)     /* float32 weights, float32 sums */
+DENSE8(dense_d, 8, double, vd8, float, 8, F8_TO_D8, SCALAR_F)    /* float32 weights, float64 sums */
 
 typedef int32_t vi16 __attribute__((vector_size(64), aligned(4)));
 typedef int64_t vl8 __attribute__((vector_size(64), aligned(8)));
@@ -166,9 +180,27 @@ static void relu_f(float *x, int64_t n) {
     for (int64_t i = 0; i < n; i++) x[i] = x[i] > 0.0f ? x[i] : 0.0f;
 }
 
+/* Per-thread scratch buffers (slot 0: q_compute's, 1-3: the memo's), grown as needed and kept: no
+ * allocation per call, and calls from several threads do not share them. */
+static __thread char *scratch_mem[4];
+static __thread size_t scratch_cap[4];
+
+static void *scratch(int slot, size_t bytes) {
+    if (bytes > scratch_cap[slot]) {
+        size_t c = scratch_cap[slot] ? scratch_cap[slot] : 4096;
+        while (c < bytes) c *= 2;
+        char *m = aligned_alloc(64, c);
+        if (!m) return NULL;
+        free(scratch_mem[slot]);
+        scratch_mem[slot] = m;
+        scratch_cap[slot] = c;
+    }
+    return scratch_mem[slot];
+}
+
 static int q_compute(const qnet_t *q, int64_t task, const uint64_t *states, int64_t n, int64_t W, double *out) {
     int64_t hid = q->hid, H = q->H, NV = q->n_var, NC = q->n_col, NS = q->n_seg, NL = q->n_live;
-    /* one scratch allocation per call, carved into 64-byte aligned pieces */
+    /* the thread's scratch, carved into 64-byte aligned pieces */
     size_t sizes[] = {sizeof(float) * (size_t)(BLOCK * hid), sizeof(float) * (size_t)(BLOCK * hid),
                       sizeof(double) * (size_t)(BLOCK * H), sizeof(float) * (size_t)(NL * BLOCK * H + 1),
                       (size_t)(BLOCK * NV + 1), (size_t)(BLOCK * NC + 1), (size_t)NL + 1,
@@ -176,7 +208,7 @@ static int q_compute(const qnet_t *q, int64_t task, const uint64_t *states, int6
                       sizeof(double) * (size_t)(NS + 1)};
     size_t total = 0;
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) total += (sizes[i] + 63) / 64 * 64;
-    char *mem = aligned_alloc(64, total), *at = mem;
+    char *mem = scratch(0, total), *at = mem;
     if (!mem) return -1;
 #define CARVE(T, name, i) T *name = (T *)at; at += (sizes[i] + 63) / 64 * 64
     CARVE(float, h1, 0); CARVE(float, h2, 1); CARVE(double, pv, 2); CARVE(float, part, 3);
@@ -260,7 +292,6 @@ static int q_compute(const qnet_t *q, int64_t task, const uint64_t *states, int6
             out[lo + b] = v + best;
         }
     }
-    free(mem);
     return 0;
 }
 
@@ -340,10 +371,10 @@ static int memoized(const qnet_t *q, int64_t key, int64_t arg, const uint64_t *s
                     double *out, compute_fn fn, const int32_t *support, const double *prob, int64_t K) {
     qnet_memo *m = q->memo;
     if (!m || m->W != W) return fn(q, arg, states, n, W, out, support, prob, K);
-    int64_t *idx = malloc(sizeof(int64_t) * (size_t)(n > 0 ? n : 1));
-    uint64_t *miss = malloc(sizeof(uint64_t) * (size_t)(n > 0 ? n : 1) * (size_t)W);
-    double *got = malloc(sizeof(double) * (size_t)(n > 0 ? n : 1));
-    if (!idx || !miss || !got) { free(idx); free(miss); free(got); return -1; }
+    int64_t *idx = scratch(1, sizeof(int64_t) * (size_t)(n > 0 ? n : 1));
+    uint64_t *miss = scratch(2, sizeof(uint64_t) * (size_t)(n > 0 ? n : 1) * (size_t)W);
+    double *got = scratch(3, sizeof(double) * (size_t)(n > 0 ? n : 1));
+    if (!idx || !miss || !got) return -1;
     int64_t nm = 0;
     for (int64_t i = 0; i < n; i++) {
         int found;
@@ -362,7 +393,6 @@ static int memoized(const qnet_t *q, int64_t key, int64_t arg, const uint64_t *s
                 memo_put(m, miss + t * W, key, got[t]);
             }
     }
-    free(idx); free(miss); free(got);
     return rc;
 }
 

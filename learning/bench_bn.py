@@ -147,6 +147,8 @@ def main() -> None:
                    help="most states per Python value call (0: no prefetch; a compiled value needs none)")
     p.add_argument("--no-reference", dest="reference", action="store_false",
                    help="do not time the reference implementation (no ratio)")
+    p.add_argument("--no-memo", dest="memo", action="store_false",
+                   help="the compiled value keeps no values from one search to the next")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args()
     from planning.parallel import one_thread
@@ -158,6 +160,7 @@ def main() -> None:
         value = GNNValue(args.gnn, model)
     elif args.checkpoint:
         value = load_value_function(args.checkpoint, model)
+        value.set_memo(args.memo)
     else:
         value = ZeroValue(float(model.config.get("reward", {}).get("gamma", 1.0)))
     if args.stream:
@@ -187,7 +190,7 @@ def main() -> None:
               f"{r['searched_tasks']} tasks")
     if args.out:
         config = {"layout": model.layout, "checkpoint": args.gnn or args.checkpoint, "budget": budget,
-                  "beta": beta, "depth_cap": args.depth_cap, "prefetch": args.prefetch,
+                  "beta": beta, "depth_cap": args.depth_cap, "prefetch": args.prefetch, "memo": args.memo,
                   "sequence": None if args.stream else args.sequence, "tasks": args.tasks}
         write_json(args.out, {**config, **r, "provenance": results_provenance(config)})
         print(f"wrote {args.out}")

@@ -708,15 +708,19 @@ class ValueFunction:
         self.net, self.enc, self.gamma = net, enc, gamma
         self.fast = NumpyQ(net)
         self.batched = BatchedQ(net, enc)
-        self._native = None
+        self._native, self.memo = None, True
 
     @property
     def native(self) -> "NativeQ | None":
         """The compiled engine, or None where there is no C compiler (or QNET_NATIVE=0)."""
         if self._native is None:
             lib = _qnet_lib()
-            self._native = NativeQ(self.batched, lib) if lib is not None else False
+            self._native = NativeQ(self.batched, lib, self.memo) if lib is not None else False
         return self._native or None
+
+    def set_memo(self, on: bool) -> None:
+        """Keep the compiled engine's values across calls (the default) or not (a fresh engine either way)."""
+        self.memo, self._native = bool(on), None
 
     def native_q_max(self, task):
         """For `planning.search.bellman_novelty`: an object whose `fn` and `ctx` are the compiled q_max of

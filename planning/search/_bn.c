@@ -73,17 +73,17 @@ static double now(void) {
 /* ---- heaps ---------------------------------------------------------------------------------------- */
 /* 4-ary min-heaps (the pop order is the order of the keys alone, unique by their ticks, whatever the
  * heap's shape). H_B: (key, tick), key = -(G + gamma^d q). H_N: one integer (w, d, tick) packed so
- * that it orders as Python's tuple. A tick identifies its push; tick_nid maps it to the node. */
-typedef struct { double key; int64_t tick; } hb_item;
+ * that it orders as Python's tuple. Each item carries its node. Ticks count pushes: under 2^32. */
+typedef struct { double key; uint32_t tick; int32_t nid; } hb_item;
+typedef struct { uint64_t key; int32_t nid; int32_t pad; } hn_item;
 #define HN_KEY(w, d, tick) (((uint64_t)(w) << 60) | ((uint64_t)(d) << 40) | (uint64_t)(tick))
 #define HN_W(k) ((int)((k) >> 60))
 #define HN_D(k) ((int32_t)(((k) >> 40) & 0xFFFFF))
-#define HN_TICK(k) ((int64_t)((k) & 0xFFFFFFFFFFULL))
 
 static inline int hb_less(const hb_item *a, const hb_item *b) {
     return a->key < b->key || (a->key == b->key && a->tick < b->tick);
 }
-static inline int hn_less(const uint64_t *a, const uint64_t *b) { return *a < *b; }
+static inline int hn_less(const hn_item *a, const hn_item *b) { return a->key < b->key; }
 
 #define HEAP_FUNCS(NAME, T, LESS)                                                            \
     static void NAME##_up(T *h, int64_t i) {                                                 \
@@ -115,12 +115,22 @@ static inline int hn_less(const uint64_t *a, const uint64_t *b) { return *a < *b
         return top;                                                                          \
     }
 HEAP_FUNCS(hb, hb_item, hb_less)
-HEAP_FUNCS(hn, uint64_t, hn_less)
+HEAP_FUNCS(hn, hn_item, hn_less)
 
 /* ---- the search ----------------------------------------------------------------------------------- */
 typedef struct { int32_t action; int32_t child; int64_t cost; uint8_t hit; } succ_t;
 typedef struct { uint64_t key; double seen, exp; } sd_t;                 /* key UINT64_MAX: empty */
 typedef struct { int32_t sid, parent, action, depth; double G; int64_t cost; } node_t;
+/* What the search knows of a state, in one cache line's half: q_max (q_has), its successors in `succ`
+ * (succn -1: not yet computed), its width as cached (w_has: w_val at tables version w_ver; 0 not novel),
+ * and the stamp of the last flush that listed it. */
+typedef struct {
+    double q;
+    int64_t succ0;
+    int32_t succn, w_ver, mark;
+    uint8_t q_has, w_has;
+    int8_t w_val;
+} sinfo_t;
 
 typedef struct {
     bn_model m;
@@ -134,10 +144,7 @@ typedef struct {
     /* states: interned, id = sid */
     uint64_t *st;  int64_t st_cap, n_st;       /* n_st * W words */
     int32_t *st_tab; int64_t st_tab_cap;       /* open addressing: sid + 1, 0 empty */
-    double *q; uint8_t *q_has;                 /* per sid */
-    int64_t *succ0; int32_t *succn;            /* successors in `succ`, succn -1: not yet computed */
-    int64_t *w_ver; int8_t *w_val; uint8_t *w_has;
-    int64_t *mark;                             /* per sid: flush stamp */
+    sinfo_t *si;                               /* per sid: its value, successors, width cache */
     int64_t sinfo_cap;
     succ_t *succ; int64_t succ_cap, n_succ;
 
@@ -146,14 +153,13 @@ typedef struct {
 
     /* nodes */
     node_t *nd; int64_t n_cap, n_nodes;
-    int32_t *tick_nid; int64_t tick_cap;         /* the node of each push */
 
     /* terminals */
     int32_t *t_sid, *t_depth, *t_parent, *t_action; double *t_G; int64_t *t_cost; int64_t t_cap, n_term;
 
     hb_item *hb; int64_t hb_cap, hb_n;
-    uint64_t *hn; int64_t hn_cap, hn_n;
-    int64_t *pend_tick; int64_t pend_cap, pend_n;   /* enqueued, not yet valued: their ticks */
+    hn_item *hn; int64_t hn_cap, hn_n;
+    int32_t *pend_nid; int64_t *pend_tick; int64_t pend_cap, pend_n;   /* enqueued, not yet valued */
 
     /* novelty tables */
     uint64_t *nov_atoms, *nov_rows;            /* W, n_atoms * W */
@@ -188,9 +194,9 @@ static int sinfo_grow(bn_t *b, int64_t need) {
     if (need <= b->sinfo_cap) return 0;
     int64_t c = b->sinfo_cap ? b->sinfo_cap : 1024;
     while (c < need) c *= 2;
-#define RE(p) do { void *x = realloc(p, (size_t)c * sizeof(*(p))); if (!x) return -1; p = x; } while (0)
-    RE(b->q); RE(b->q_has); RE(b->succ0); RE(b->succn); RE(b->w_ver); RE(b->w_val); RE(b->w_has); RE(b->mark);
-#undef RE
+    sinfo_t *x = realloc(b->si, (size_t)c * sizeof(sinfo_t));
+    if (!x) return -1;
+    b->si = x;
     b->sinfo_cap = c;
     return 0;
 }
@@ -226,7 +232,8 @@ static int32_t intern(bn_t *b, const uint64_t *s) {
     int64_t id = b->n_st;
     if (GROW(b->st, b->st_cap, (id + 1) * W) || sinfo_grow(b, id + 1)) return -1;
     memcpy(b->st + id * W, s, (size_t)W * 8);
-    b->q_has[id] = 0; b->succn[id] = -1; b->w_has[id] = 0; b->mark[id] = 0;
+    sinfo_t z = {0.0, 0, -1, 0, 0, 0, 0, 0};
+    b->si[id] = z;
     b->st_tab[h] = (int32_t)(id + 1);
     b->n_st = id + 1;
     return (int32_t)id;
@@ -329,7 +336,7 @@ static int scan(bn_t *b, int64_t lo, int64_t hi, const uint64_t *s) {
 
 /* EXPANSION_OF: the successors of a state, computed once (Model.successors' order). */
 static int expansion_of(bn_t *b, int32_t sid) {
-    if (b->succn[sid] >= 0) return 0;
+    if (b->si[sid].succn >= 0) return 0;
     double t0 = b->profile ? now() : 0.0;
     int64_t W = b->W;
     uint64_t s[64];
@@ -345,8 +352,8 @@ static int expansion_of(bn_t *b, int32_t sid) {
             if (i < b->m.n_atoms && scan(b, b->m.trig0[i], b->m.trig0[i + 1], s)) return -1;
         }
     }
-    b->succ0[sid] = start;
-    b->succn[sid] = (int32_t)(b->n_succ - start);
+    b->si[sid].succ0 = start;
+    b->si[sid].succn = (int32_t)(b->n_succ - start);
     if (b->profile) b->t_sim += now() - t0;
     return 0;
 }
@@ -371,11 +378,12 @@ static int width_raw(bn_t *b, const uint64_t *s, const uint64_t *added) {
 }
 
 static int width_of(bn_t *b, int32_t sid, const uint64_t *added) {
-    if (b->w_has[sid] && (b->w_val[sid] == 0 || b->w_ver[sid] == b->nov_version)) return b->w_val[sid];
+    sinfo_t *i = &b->si[sid];
+    if (i->w_has && (i->w_val == 0 || i->w_ver == (int32_t)b->nov_version)) return i->w_val;
     double t0 = b->profile ? now() : 0.0;
     int w = width_raw(b, b->st + (int64_t)sid * b->W, added);
     if (b->profile) b->t_nov += now() - t0;
-    b->w_has[sid] = 1; b->w_ver[sid] = b->nov_version; b->w_val[sid] = (int8_t)w;
+    i->w_has = 1; i->w_ver = (int32_t)b->nov_version; i->w_val = (int8_t)w;
     return w;
 }
 
@@ -410,10 +418,9 @@ static int32_t new_node(bn_t *b, int32_t sid, int32_t parent, int32_t action, in
     return (int32_t)i;
 }
 
-/* The next tick, for node nid (-1: out of memory). */
-static int64_t next_tick(bn_t *b, int32_t nid) {
-    if (b->tick >= (int64_t)1 << 40 || GROW(b->tick_nid, b->tick_cap, b->tick + 1)) return -1;
-    b->tick_nid[b->tick] = nid;
+/* The next tick (-1: past 2^32 pushes). */
+static int64_t next_tick(bn_t *b) {
+    if (b->tick >= (int64_t)UINT32_MAX) return -1;
     return b->tick++;
 }
 
@@ -455,16 +462,23 @@ static int trace(bn_t *b, int kind, int32_t nid) {
 }
 
 static int pend(bn_t *b, int32_t nid) {
-    int64_t t = next_tick(b, nid);
-    if (t < 0 || GROW(b->pend_tick, b->pend_cap, b->pend_n + 1)) return -1;
+    int64_t t = next_tick(b), cap = b->pend_cap;
+    if (t < 0 || GROW(b->pend_nid, b->pend_cap, b->pend_n + 1)) return -1;
+    if (b->pend_cap != cap) {
+        int64_t *x = realloc(b->pend_tick, (size_t)b->pend_cap * sizeof(int64_t));
+        if (!x) return -1;
+        b->pend_tick = x;
+    }
+    b->pend_nid[b->pend_n] = nid;
     b->pend_tick[b->pend_n++] = t;
     return 0;
 }
 
 static int push_hn(bn_t *b, int w, int32_t d, int32_t nid) {
-    int64_t t = next_tick(b, nid);
+    int64_t t = next_tick(b);
     if (t < 0 || d >= (1 << 20) || GROW(b->hn, b->hn_cap, b->hn_n + 1)) return -1;
-    b->hn[b->hn_n] = HN_KEY(w, d, t);
+    hn_item x = {HN_KEY(w, d, t), nid, 0};
+    b->hn[b->hn_n] = x;
     hn_up(b->hn, b->hn_n++);
     return 0;
 }
@@ -482,8 +496,13 @@ static int expand(bn_t *b, int32_t nid, int registered) {
     int32_t d1 = d + 1;
     double disc = b->gpow[d] / b->scale;
     int is_open = d1 < b->depth_cap;
-    int64_t s0 = b->succ0[sid], sn = b->succn[sid];
+    int64_t s0 = b->si[sid].succ0, sn = b->si[sid].succn;
     uint64_t added[64];
+    if (is_open && 2 * (b->sd_n + sn + 1) <= b->sd_cap) {       /* the children's (state, depth) entries: */
+        uint64_t mask = (uint64_t)(b->sd_cap - 1);                 /* fetched at once, not one miss at a time */
+        for (int64_t k = 0; k < sn; k++)
+            __builtin_prefetch(&b->sd[mix64(sd_keyof(b->succ[s0 + k].child, d1)) & mask]);
+    }
     for (int64_t k = 0; k < sn; k++) {
         succ_t x = b->succ[s0 + k];
         double G2 = G - disc * (double)x.cost;
@@ -517,9 +536,9 @@ static int flush_need(bn_t *b) {
     int64_t W = b->W, stamp = ++b->flush_stamp;
     b->need_n = 0;
     for (int64_t i = 0; i < b->pend_n; i++) {
-        int32_t sid = b->nd[b->tick_nid[b->pend_tick[i]]].sid;
-        if (b->q_has[sid] || b->mark[sid] == stamp) continue;
-        b->mark[sid] = stamp;
+        int32_t sid = b->nd[b->pend_nid[i]].sid;
+        if (b->si[sid].q_has || b->si[sid].mark == (int32_t)stamp) continue;
+        b->si[sid].mark = (int32_t)stamp;
         if (GROW(b->need_sid, b->need_cap, b->need_n + 1)) return -1;
         b->need_sid[b->need_n++] = sid;
     }
@@ -529,11 +548,11 @@ static int flush_need(bn_t *b) {
         for (int64_t i = 0; i < n0; i++) {
             int32_t sid = b->need_sid[i];
             if (expansion_of(b, sid)) return -1;               /* every need state's successors, as Python */
-            int64_t s0 = b->succ0[sid], sn = b->succn[sid];
+            int64_t s0 = b->si[sid].succ0, sn = b->si[sid].succn;
             for (int64_t k = 0; k < sn && room > 0; k++) {
                 succ_t x = b->succ[s0 + k];
-                if (x.hit || b->q_has[x.child] || b->mark[x.child] == stamp) continue;
-                b->mark[x.child] = stamp;
+                if (x.hit || b->si[x.child].q_has || b->si[x.child].mark == (int32_t)stamp) continue;
+                b->si[x.child].mark = (int32_t)stamp;
                 if (GROW(b->need_sid, b->need_cap, b->need_n + 1)) return -1;
                 b->need_sid[b->need_n++] = x.child;
                 room--;
@@ -554,15 +573,15 @@ static int flush_need(bn_t *b) {
 /* The second half: store the values, push the pending nodes on H_B with their enqueue ticks. */
 static int flush_push(bn_t *b) {
     if (b->need_n) {
-        for (int64_t i = 0; i < b->need_n; i++) { b->q[b->need_sid[i]] = b->need_q[i]; b->q_has[b->need_sid[i]] = 1; }
+        for (int64_t i = 0; i < b->need_n; i++) { b->si[b->need_sid[i]].q = b->need_q[i]; b->si[b->need_sid[i]].q_has = 1; }
         b->value_calls++;
         b->value_states += b->need_n;
         b->need_n = 0;
     }
     if (GROW(b->hb, b->hb_cap, b->hb_n + b->pend_n)) return -1;
     for (int64_t i = 0; i < b->pend_n; i++) {
-        const node_t *n = &b->nd[b->tick_nid[b->pend_tick[i]]];
-        hb_item x = {-(n->G + b->gpow[n->depth] * b->q[n->sid]), b->pend_tick[i]};
+        const node_t *n = &b->nd[b->pend_nid[i]];
+        hb_item x = {-(n->G + b->gpow[n->depth] * b->si[n->sid].q), (uint32_t)b->pend_tick[i], b->pend_nid[i]};
         b->hb[b->hb_n] = x;
         hb_up(b->hb, b->hb_n++);
     }
@@ -573,8 +592,9 @@ static int flush_push(bn_t *b) {
 /* NOVELTYPOP: -1 when the heap runs dry */
 static int32_t novelty_pop(bn_t *b) {
     while (b->hn_n) {
-        uint64_t x = hn_pop(b->hn, &b->hn_n);
-        int32_t nid = b->tick_nid[HN_TICK(x)], d = HN_D(x);
+        hn_item it = hn_pop(b->hn, &b->hn_n);
+        uint64_t x = it.key;
+        int32_t nid = it.nid, d = HN_D(x);
         const node_t *n = &b->nd[nid];
         if (d >= b->depth_cap || sd_expanded(b, n->sid, d) >= n->G) { b->skipped++; continue; }
         int w = width_of(b, n->sid, NULL);
@@ -611,8 +631,7 @@ void bn_set_native(bn_t *b, bn_native_fn fn, void *ctx) { b->native = fn; b->nat
 
 void bn_free(bn_t *b) {
     if (!b) return;
-    void *ps[] = {b->gpow, b->st, b->st_tab, b->q, b->q_has, b->succ0, b->succn, b->w_ver, b->w_val, b->w_has,
-                  b->mark, b->succ, b->sd, b->nd, b->tick_nid, b->t_sid, b->t_depth, b->t_parent, b->t_action,
+    void *ps[] = {b->gpow, b->st, b->st_tab, b->si, b->succ, b->sd, b->nd, b->pend_nid, b->t_sid, b->t_depth, b->t_parent, b->t_action,
                   b->t_G, b->t_cost, b->hb, b->hn, b->pend_tick, b->nov_atoms, b->nov_rows, b->need,
                   b->need_sid, b->need_q, b->act_stamp, b->tmp, b->tr_kind, b->tr_node};
     for (size_t i = 0; i < sizeof(ps) / sizeof(ps[0]); i++) free(ps[i]);
@@ -671,7 +690,7 @@ int bn_run(bn_t *b) {
                 continue;
             }
             hb_item x = hb_pop(b->hb, &b->hb_n);
-            int32_t nid = b->tick_nid[x.tick], d = b->nd[nid].depth;
+            int32_t nid = x.nid, d = b->nd[nid].depth;
             if (d >= b->depth_cap || sd_expanded(b, b->nd[nid].sid, d) >= b->nd[nid].G) {
                 b->stale++;
                 if (trace(b, 3, nid)) return BN_ENOMEM;
@@ -760,7 +779,7 @@ int64_t bn_successors(bn_t *b, const uint64_t *s, int32_t *action, int64_t *cost
                       int64_t cap) {
     int32_t sid = intern(b, s);
     if (sid < 0 || expansion_of(b, sid)) return -1;
-    int64_t s0 = b->succ0[sid], n = b->succn[sid];
+    int64_t s0 = b->si[sid].succ0, n = b->si[sid].succn;
     for (int64_t k = 0; k < n && k < cap; k++) {
         succ_t x = b->succ[s0 + k];
         action[k] = x.action; cost[k] = x.cost; hit[k] = x.hit;
