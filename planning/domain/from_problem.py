@@ -125,11 +125,17 @@ def wrap(domain: Path, problem: Path, out: Path, layout: str | None = None) -> P
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("domain", help="the PDDL domain file")
-    p.add_argument("problem", help="the PDDL problem file")
-    p.add_argument("--out", required=True, type=cli.writable_folder, help="the domain folder to write")
+    p.add_argument("domain", nargs="?", help="the PDDL domain file")
+    p.add_argument("problem", nargs="?", help="the PDDL problem file")
+    p.add_argument("--out", default=None, type=cli.writable_folder, help="the domain folder to write")
     p.add_argument("--layout", default=None, help="the layout's name (default: the problem file's name)")
     args = p.parse_args()
+    usage = "python -m planning.domain.from_problem DOMAIN PROBLEM --out DIR"
+    what = f" as layout '{args.layout}'" if args.layout else ""
+    if args.problem is None:
+        raise DomainError("planning.domain.from_problem", f"no DOMAIN and PROBLEM files to wrap{what} ({usage})")
+    if args.out is None:
+        raise DomainError("planning.domain.from_problem", f"no --out folder to write{what} into ({usage})")
     out = wrap(Path(args.domain), Path(args.problem), Path(args.out), args.layout)
     layout = args.layout or layout_name(Path(args.problem))
     print(f"wrote {out}: layout {layout}, one task '{TASK}()' (the problem's goal)")
