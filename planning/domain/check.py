@@ -44,7 +44,7 @@ import numpy as np
 
 from planning.errors import DomainError
 
-KNOWN_TABLES = ("layouts", "tasks", "reset", "coordinates", "heads", "stream", "reward", "training", "search")
+KNOWN_TABLES = ("layouts", "tasks", "reset", "coordinates", "heads", "stream", "reward", "training", "search", "gnn")
 """The top-level tables of domain.toml that some tool reads."""
 LAYOUT_KEYS = ("problem", "rooms", "tasks", "reset", "coordinates")
 STREAM_KEYS = {"tasks_per_reset": "a positive integer", "max_actions": "a positive integer",

@@ -201,11 +201,11 @@ def test_a_deployed_sweep_exports_each_run_and_plays_it_greedily(tiny, tmp_path)
               "--checkpoints", "ck", "--results", "res")
     (point,) = r["points"]
     g = point["greedy"]
-    assert g["checkpoint"] == "ck/rl-anticipatory-grid-seed1.pt" and g["sequences"] == [0, 1]
-    played = json.loads((tmp_path / "res" / "rl-greedy-anticipatory-grid-seed1.json").read_text())
+    assert g["checkpoint"] == "ck/minimal-rl-anticipatory-grid-seed1.pt" and g["sequences"] == [0, 1]
+    played = json.loads((tmp_path / "res" / "minimal-rl-greedy-anticipatory-grid-seed1.json").read_text())
     assert played["agent"] == "rl-greedy" and played["cost_per_task"] == g["cost_per_task"]
-    assert played["config"]["checkpoint"] == "ck/rl-anticipatory-grid-seed1.pt"
-    figures = json.loads((tmp_path / "res" / "training-anticipatory-grid-seed1.json").read_text())
+    assert played["config"]["checkpoint"] == "ck/minimal-rl-anticipatory-grid-seed1.pt"
+    figures = json.loads((tmp_path / "res" / "minimal-training-anticipatory-grid-seed1.json").read_text())
     assert figures["seed"] == 1 and figures["steps"] == 120
     # the compact checkpoint acts as the run's best.pt on the grid
     model = compile_domain(tiny, "grid")
