@@ -15,7 +15,6 @@ report then names the commit that last touched the file).
 """
 from __future__ import annotations
 
-import json
 import math
 import os
 import subprocess
@@ -26,6 +25,7 @@ from pathlib import Path
 from experiments.registry import AGENTS, agent_class
 from experiments.report_specs import Row, Run
 from planning import atomic
+from planning.atomic import read_json
 from planning.errors import DomainError
 from planning.world.sequences import COUNT, DEVELOPMENT
 
@@ -66,22 +66,6 @@ def last_commit(path: str) -> str | None:
 def sha256(path: str) -> str | None:
     """A checkpoint's digest, read once per report."""
     return atomic.sha256(path)
-
-
-def read_json(path, what: str = "results file"):
-    """A file's JSON; one cut short or not JSON at all stops the report with a one-line error naming it
-    (read as missing, its figures would go blank and pass for a run not yet made)."""
-    path = Path(path)
-    try:
-        return json.loads(path.read_text())
-    except json.JSONDecodeError as e:
-        raise DomainError(path, f"corrupt {what} ({e.msg} at line {e.lineno}: cut short or edited by hand); "
-                                "restore it from git, or delete it and rerun the command that writes it") from None
-    except UnicodeDecodeError:
-        raise DomainError(path, f"corrupt {what} (not text); restore it from git, or delete it and rerun the "
-                                "command that writes it") from None
-    except OSError as e:
-        raise DomainError(path, f"cannot read: {e.strerror}") from None
 
 
 def writer_pid(run: Run) -> int | None:

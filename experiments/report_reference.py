@@ -17,8 +17,8 @@ from experiments.report_tables import num, pct, table
 
 def read(path) -> dict | None:
     """A finished results file's content (None if missing or still being written); a corrupt one is a
-    one-line error (`report_data.read_json`), not a table row that reads as never run."""
-    from experiments.report_data import read_json
+    one-line error (`planning.atomic.read_json`), not a table row that reads as never run."""
+    from planning.atomic import read_json
 
     p = Path(path)
     if not p.is_file() or Path(f"{p}.partial.json").is_file():

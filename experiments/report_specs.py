@@ -228,7 +228,7 @@ def training_logs(layout: str, horizon: str) -> list[tuple[int, str]]:
     (`learning.export` wrote results/training-<horizon>-<layout>-seed<N>.json), not runs still in progress.
     The log is that results file where it keeps the run's curve, else the run's metrics.jsonl (runs exported
     before curves were kept; runs/ is not committed)."""
-    from experiments.report_data import read_json
+    from planning.atomic import read_json
 
     out = []
     for s in RL_SEEDS[layout]:

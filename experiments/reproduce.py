@@ -38,8 +38,9 @@ from tqdm import tqdm
 from experiments import report_domain
 from experiments import report_figures as figs
 from experiments import report_reference, report_tables
-from experiments.report_data import (ALL, Context, last_commit, load_rows, load_run, read_json, read_jsonl,
-                                     run_protocol, sha256, writer_pid)
+from experiments.report_data import (ALL, Context, last_commit, load_rows, load_run, read_jsonl, run_protocol,
+                                     sha256, writer_pid)
+from planning.atomic import read_json
 from experiments.report_specs import (AGENTS, LAYOUTS, THESIS, THESIS_DISCOUNT, THESIS_MINIMAL, discount_runs,
                                       rl_checkpoint, rl_run_dir, rows as row_specs, training_logs)
 from planning import cli

@@ -43,6 +43,24 @@ def write_json(path, obj) -> Path:
     return write_text(path, json.dumps(obj, indent=1) + "\n")
 
 
+def read_json(path, what: str = "results file"):
+    """A file's JSON; one cut short or not JSON at all is a one-line error naming it (a report that read it
+    as missing would blank its figures, which would pass for a run not yet made)."""
+    from planning.errors import DomainError
+
+    path = Path(path)
+    try:
+        return json.loads(path.read_text())
+    except json.JSONDecodeError as e:
+        raise DomainError(path, f"corrupt {what} ({e.msg} at line {e.lineno}: cut short or edited by hand); "
+                                "restore it from git, or delete it and rerun the command that writes it") from None
+    except UnicodeDecodeError:
+        raise DomainError(path, f"corrupt {what} (not text); restore it from git, or delete it and rerun the "
+                                "command that writes it") from None
+    except OSError as e:
+        raise DomainError(path, f"cannot read: {e.strerror}") from None
+
+
 def sha256(path) -> str | None:
     """The hex sha256 of a file's bytes (None if there is no such file): the provenance of a checkpoint."""
     path = Path(path)
