@@ -8,7 +8,9 @@ executed. On the same state and task the reference implementation
 (`planning.search.bellman_novelty_reference`, the search as it was before the
 compiled kernel) is timed too, first or second in turn, so that both see the
 same load: the speed-up is a ratio measured in one run, per expansion (wall
-clock) and in CPU time. Each task also checks that both chose the same plan.
+clock) and in CPU time, with the compiled value's memo (values kept from one
+search to the next, as the agents run) and without it. Each task also checks
+that both implementations chose the same plan.
 Prints expansions per second of both, where the new search's time goes (value
 calls, simulator, novelty tables, the rest: heaps and bookkeeping) and the
 mean seconds per task.
@@ -27,6 +29,7 @@ the new search alone.
 """
 from __future__ import annotations
 
+import copy
 import time
 
 import numpy as np
@@ -72,13 +75,22 @@ def _summary(rows: list, key: str) -> dict:
 
 def benchmark(model, value, tasks: list, reset_seed: int, budget: int, beta: float, depth_cap: int = DEPTH_CAP,
               prefetch: int = PREFETCH, progress: bool = True, reference: bool = True) -> dict:
-    """Play `tasks` from the world of `reset_seed` with the search (and time the reference on each task)."""
+    """Play `tasks` from the world of `reset_seed` with the search (and time the reference on each task).
+
+    A Q-network value keeps its compiled values from one search to the next (its memo, as the agents use
+    it); the search is also timed with a copy that keeps none ("no_memo"), so that both ratios come from
+    the same run."""
     bm = BatchedModel(model)
     world = PersistentWorld(model, reset_seed)
     rows = []
     kw = dict(budget=budget, beta=beta, depth_cap=depth_cap, prefetch=prefetch)
-    if tasks:                                          # build the compiled kernels first, outside the timing
-        bellman_novelty_search(model, world.state, tasks[0], value, budget=1, beta=beta, depth_cap=depth_cap)
+    bare = None
+    if callable(getattr(value, "set_memo", None)) and getattr(value, "memo", False):
+        bare = copy.copy(value)
+        bare.set_memo(False)
+    for v in (value, bare):                            # build the compiled kernels first, outside the timing
+        if tasks and v is not None:
+            bellman_novelty_search(model, world.state, tasks[0], v, budget=1, beta=beta, depth_cap=depth_cap)
     for i, task in enumerate(tasks):
         if world.begin(task):
             continue                                   # already satisfied: no search
@@ -87,10 +99,11 @@ def benchmark(model, value, tasks: list, reset_seed: int, budget: int, beta: flo
         t_ref = time.perf_counter() - t0
         state = world.state
         runs = {}
-        order = ("new", "reference") if len(rows) % 2 == 0 else ("reference", "new")
-        for which in order if reference else ("new",):
-            search = bellman_novelty_search if which == "new" else bellman_novelty_search_reference
-            runs[which] = _timed(search, model, state, task, value, reference_plan=ref.plan, **kw)
+        order = ["new"] + (["no_memo"] if bare is not None else []) + (["reference"] if reference else [])
+        for which in order if len(rows) % 2 == 0 else order[::-1]:
+            search = bellman_novelty_search_reference if which == "reference" else bellman_novelty_search
+            runs[which] = _timed(search, model, state, task, bare if which == "no_memo" else value,
+                                 reference_plan=ref.plan, **kw)
         r, new = runs["new"]
         s = r.stats
         if r.plan is None:
@@ -100,6 +113,9 @@ def benchmark(model, value, tasks: list, reset_seed: int, budget: int, beta: flo
         row = {"index": i, "task": task.name, "c_myo": s.c_myo, "cost": s.cost, "source": s.source,
                "expansions": s.expansions, "terminals": s.terminals, "eligible": s.eligible, "nodes": s.nodes,
                "new": new, "reference_seconds": t_ref}
+        if bare is not None:
+            rb, row["no_memo"] = runs["no_memo"]
+            assert rb.plan == r.plan, "a value kept from an earlier search changed a choice"
         if reference:
             rr, old = runs["reference"]
             row.update(reference=old, same_plan=rr.plan == r.plan, reference_cost=rr.stats.cost)
@@ -115,15 +131,21 @@ def benchmark(model, value, tasks: list, reset_seed: int, budget: int, beta: flo
            "reference_seconds_per_task": sum(r["reference_seconds"] for r in rows) / max(len(rows), 1),
            "cost_per_task": float(np.mean([r["cost"] if r["cost"] is not None else np.nan for r in rows]))
            if rows else None}
+    if bare is not None:
+        out["no_memo"] = _summary(rows, "no_memo")
     if reference:
         old = _summary(rows, "reference")
-        cpu_new = sum(r["new"]["cpu"] for r in rows)
         out["reference_implementation"] = old
-        out["speedup"] = {
-            "per_expansion": out["expansions_per_s"] / max(old["expansions_per_s"], 1e-12),
-            "cpu": sum(r["reference"]["cpu"] for r in rows) / max(cpu_new, 1e-12),
-            "min_task": min((r["reference"]["seconds"] / max(r["new"]["seconds"], 1e-12) for r in rows),
-                            default=None)}
+
+        def speedup(key):
+            return {"per_expansion": _summary(rows, key)["expansions_per_s"] / max(old["expansions_per_s"], 1e-12),
+                    "cpu": sum(r["reference"]["cpu"] for r in rows) / max(sum(r[key]["cpu"] for r in rows), 1e-12),
+                    "min_task": min((r["reference"]["seconds"] / max(r[key]["seconds"], 1e-12) for r in rows),
+                                    default=None)}
+
+        out["speedup"] = speedup("new")
+        if bare is not None:
+            out["speedup_no_memo"] = speedup("no_memo")
         out["same_plans"] = sum(r["same_plan"] for r in rows)
     memo = getattr(getattr(value, "native", None), "memo_stats", None)
     if callable(memo):
@@ -148,7 +170,7 @@ def main() -> None:
     p.add_argument("--no-reference", dest="reference", action="store_false",
                    help="do not time the reference implementation (no ratio)")
     p.add_argument("--no-memo", dest="memo", action="store_false",
-                   help="the compiled value keeps no values from one search to the next")
+                   help="the compiled value keeps no values from one search to the next (else both are timed)")
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args()
     from planning.parallel import one_thread
@@ -188,6 +210,11 @@ def main() -> None:
         print(f"  speed-up {up['per_expansion']:.1f}x per expansion ({up['cpu']:.1f}x in CPU time, "
               f"{up['min_task']:.1f}x on the least sped-up task); same plan on {r['same_plans']} of "
               f"{r['searched_tasks']} tasks")
+        if "speedup_no_memo" in r:
+            up = r["speedup_no_memo"]
+            print(f"  without the value memo: {r['no_memo']['expansions_per_s']:,.0f} expansions/s, "
+                  f"{r['no_memo']['seconds_per_task']:.3f} s per task, speed-up {up['per_expansion']:.1f}x per "
+                  f"expansion ({up['cpu']:.1f}x in CPU time)")
     if args.out:
         config = {"layout": model.layout, "checkpoint": args.gnn or args.checkpoint, "budget": budget,
                   "beta": beta, "depth_cap": args.depth_cap, "prefetch": args.prefetch, "memo": args.memo,

@@ -59,14 +59,17 @@ are Model.successors' in the same order (checked against it on each model's
 first search), and its heaps, counters, dedup tables, width cache and value
 batches are the Python loop's, so with the same value it makes the same
 choices bit for bit (tests/planning/test_bn_kernel.py). A value that offers
-a compiled q_max (`value.native_q_max(task)`, e.g. the Q-network's,
-`learning.qnet`) is called from C at each flush with exactly the states the
-flush needs (`prefetch` is then moot: a compiled value's result for a state
-does not depend on the batch, and its per-call cost is nil); any other value
-is called back in Python with the batches above. Elsewhere, or with
-`ANTICIPATORY_BN_NATIVE=0` or no C compiler, the Python loop below runs.
-`kernel=` ("auto", "c", "python") and `native_value=` force a path. The loop
-before the kernel is kept verbatim in `planning.search.bellman_novelty_reference`.
+a compiled q_max (`value.native_q_max(task)` -> an object with `fn`, a
+`bn_native_fn` of _bn.c, `ctx` and optionally `v_ap`; the Q-network's,
+`learning.qnet.NativeQ`) is called from C at each flush with exactly the
+states the flush needs (no prefetch: a compiled value's result for a state
+does not depend on the batch, and its per-call cost is nil), and its `v_ap`
+scores the terminals; any other value is called back in Python with the
+batches above. Elsewhere, or with `ANTICIPATORY_BN_NATIVE=0` or no C
+compiler, the Python loop below runs. `kernel=` ("auto", "c", "python") and
+`native_value=` force a path. The loop before the kernel is kept verbatim in
+`planning.search.bellman_novelty_reference` (the benchmark's reference).
+Measured with `learning.bench_bn`: results/bench-bn-*.json.
 """
 from __future__ import annotations
 
@@ -88,7 +91,7 @@ from planning.search.novelty import NoveltyTables
 BELLMAN_TURNS = 3                 # Bellman turns per novelty turn (Algorithm 3, lines 6-16)
 DEPTH_CAP = 20                    # d_max of Table A.3
 PREFETCH = 64                     # most states per q_max call when a flush speculatively values grandchildren
-NATIVE_PREFETCH = 0               # the same with a compiled value (see _search_c)
+NATIVE_PREFETCH = 0               # the same with a compiled value: none (each state valued when needed)
 INF = float("inf")
 
 

@@ -1,0 +1,28 @@
+"""learning.bench_bn: the search timed against the reference implementation in the same run."""
+from pathlib import Path
+
+import pytest
+
+
+def test_benchmark_reports_the_ratio_and_the_same_plans(two_room):
+    pytest.importorskip("torch")
+    ckpt = Path("checkpoints/rl-anticipatory-two-room-seed0.pt")
+    if not ckpt.is_file():
+        pytest.skip(f"no {ckpt}")
+    from learning.bench_bn import benchmark
+    from learning.qnet import load_value_function
+    from planning.parallel import one_thread
+    from planning.world.sequences import load
+
+    one_thread()
+    value = load_value_function(ckpt, two_room)
+    seq = load(two_room, [0])[0]
+    r = benchmark(two_room, value, seq.tasks[:4], seq.reset_seed, budget=300, beta=1.25, progress=False)
+    assert r["searched_tasks"] >= 3 and r["same_plans"] == r["searched_tasks"]
+    for key in ("speedup", "speedup_no_memo"):
+        assert r[key]["per_expansion"] > 0 and r[key]["cpu"] > 0
+    assert r["reference_implementation"]["expansions_per_s"] > 0
+    assert all(t["expansions"] == 300 for t in r["per_task"])
+    alone = benchmark(two_room, value, seq.tasks[:2], seq.reset_seed, budget=100, beta=1.25, progress=False,
+                      reference=False)
+    assert "speedup" not in alone and alone["searched_tasks"] >= 1
