@@ -48,6 +48,8 @@ from planning.world.agents import Planner, Reply
 from learning.gnn_value import GNNValue, model_summary
 from learning.greedy import checkpoint_run_name
 
+GENERATORS = ("domain", "clause-library")
+"""`--generator`: the domain's declared candidates, or the dataset's clause library regardless."""
 MAX_CLAUSES = 10
 TIME_LIMIT = 300.0           # seconds per search: a guard; on this machine every search ends well within it
 
@@ -261,16 +263,21 @@ class GNNNativePlanner(Planner):
         p.add_argument("--candidates", default=None,
                        help="the candidate cache file, shared by runs that plan alike (default: "
                             "runs/gnn/candidates/DOMAIN-LAYOUT-REFERENCE[-focused]-cMAX.jsonl; 'none': plan every task)")
+        p.add_argument("--generator", default="domain", choices=GENERATORS,
+                       help="the candidates: the domain's [gnn.candidates] (default; the clause library where it "
+                            "declares none), or the clause library whatever the domain declares (the runs made "
+                            "before the focused generator; their results end in -clause-library)")
         p.add_argument("--exact-labels", action="store_true",
                        help="also label every scored candidate with the exact C_AP (oracles.labelling), for the record")
 
     @classmethod
     def from_args(cls, args, model) -> "GNNNativePlanner":
         return cls(model, args.model, args.max_clauses, args.reference, args.time_limit, args.exact_labels,
-                   candidates=args.candidates)
+                   candidates=args.candidates, generator=getattr(args, "generator", "domain"))
 
     def __init__(self, model, gnn, max_clauses: int | None = None, reference: str = "internal",
-                 time_limit: float = TIME_LIMIT, exact_labels: bool = False, estimate=None, candidates: str | None = "none"):
+                 time_limit: float = TIME_LIMIT, exact_labels: bool = False, estimate=None, candidates: str | None = "none",
+                 generator: str = "domain"):
         """`estimate(states) -> Ĉ_AP array`: the scorer (default: the checkpoint's GNNValue.c_ap).
         `max_clauses`: None for the domain's [gnn.candidates] max_clauses (else MAX_CLAUSES).
         `candidates`: the CandidateCache file (None: the default one; "none": no cache)."""
@@ -279,7 +286,10 @@ class GNNNativePlanner(Planner):
         from learning.gnn_candidates import FocusedCandidates
         from learning.gnn_dataset import ClauseLibrary, DatasetConfig
 
-        self.focused = FocusedCandidates.from_model(model)
+        if generator not in GENERATORS:
+            raise DomainError("--generator", f"'{generator}' is not one of {', '.join(GENERATORS)}")
+        declared = FocusedCandidates.from_model(model)
+        self.focused = declared if generator == "domain" else None
         if max_clauses is None:
             max_clauses = self.focused.max_clauses if self.focused is not None else MAX_CLAUSES
         if max_clauses < 0:
@@ -294,19 +304,22 @@ class GNNNativePlanner(Planner):
         self.exact_labels = exact_labels
         self._labeller = None
         if self.focused is None:
-            generator = {"max_clauses": self.max_clauses, "min_clause_cost": self.min_cost,
+            described = {"max_clauses": self.max_clauses, "min_clause_cost": self.min_cost,
                          "clauses": len(self.library), "region": "myopic plan locations + one move",
                          "candidate_generator": {"kind": "clause-library", "source": "learning.gnn_dataset.ClauseLibrary "
                                                  "(no [gnn.candidates] in domain.toml)", "order": "h_max, then library order"}}
         else:
-            generator = {"max_clauses": self.max_clauses,
+            described = {"max_clauses": self.max_clauses,
                          "region": f"myopic plan locations + those within {self.focused.hops} base hop(s) "
                                    f"({self.focused.hops * self.focused.base_hop})",
                          "candidate_generator": {**self.focused.describe(), "order": "sorted objects, families in order; no cost sort"}}
-        self.config = {**(model_summary(gnn) if estimate is None else {"model": str(gnn)}), **generator,
+        self.config = {**(model_summary(gnn) if estimate is None else {"model": str(gnn)}), **described,
                        "selection": "cost + C_AP estimate, lowest; the myopic plan unless strictly beaten",
                        "reference": self.reference.config}
         self.run_name = checkpoint_run_name(self.name, gnn, "gnn-") + ("" if reference == "internal" else f"-{reference}")
+        if generator == "clause-library" and declared is not None:
+            self.config.pop("candidate_generator")      # as every results file made before the focused generator
+            self.run_name += "-clause-library"
         from planning.domain.batched import BatchedModel
         from planning.heuristics.hmax import HMax
 

@@ -171,9 +171,9 @@ def test_report_only_from_the_committed_results(tmp_path, monkeypatch):
     oracle = json.loads((ROOT / "results" / "myopic-oracle-two-room.json").read_text())["cost_per_task"]
     assert f"| Myopic oracle | {oracle:,.1f}" in text
     # the two-room augmented GNN row names every finished results file, or says "not run" with its command
-    row = next(line for line in text.splitlines() if line.startswith("| One-task GNN (augmented) |"))
-    files = [f.name for f in (ROOT / "results").glob("gnn-native-augmented-two-room-seed*.json")
-             if not f.name.endswith(".partial.json")]
+    row = next(line for line in text.splitlines()
+               if line.startswith("| One-task GNN (augmented, clause-library candidates) |"))
+    files = [f.name for f in (ROOT / "results").glob("gnn-native-augmented-two-room-seed*-clause-library.json")]
     if files:
         assert all(f"`{name}`" in row for name in files) and f"{len(files)} of 4" in row
     else:
