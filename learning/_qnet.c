@@ -36,6 +36,9 @@ typedef struct {
     const int32_t *col_seg;          /* n_col: the segment of each (segment, value) column */
     const float *col_w, *col_b;      /* n_col x H, n_col: the value's output row */
     const uint64_t *var_pos, *var_neg;          /* n_var x W: each precondition variant */
+    const int32_t *trig0, *trig_var;            /* the variants to test when atom i holds: trig_var[trig0[i]..] */
+    const int32_t *always;                      /* the variants without a positive atom (n_always of them) */
+    int64_t n_always;
     const int32_t *var_col0, *var_coln, *var_cols;   /* its columns (CSR) */
     const int32_t *goal0, *goaln;    /* per task: its goal bindings in goal_pos / goal_neg */
     const uint64_t *goal_pos, *goal_neg;
@@ -66,11 +69,14 @@ typedef double vd8 __attribute__((vector_size(64), aligned(8)));
 #define DENSE(NAME, B, C, T, V, WS, L, CV, SW)                                                       \
     static void NAME(const float *x, int64_t in, const WS *w, const T *bias, int64_t outn, T *acc) { \
         int32_t ks[in > 0 ? in : 1];                                                                 \
+        T xt[(in > 0 ? in : 1) * B];                                                                 \
         int64_t nk = 0;                                                                              \
         for (int64_t k = 0; k < in; k++) {                                                           \
             int z = 1;                                                                               \
             for (int b = 0; b < B; b++) z &= x[b * in + k] == 0.0f;                                  \
-            if (!z) ks[nk++] = (int32_t)k;                                                           \
+            if (z) continue;                                                                         \
+            for (int b = 0; b < B; b++) xt[nk * B + b] = (T)x[b * in + k];                           \
+            ks[nk++] = (int32_t)k;                                                                   \
         }                                                                                            \
         int64_t j = 0;                                                                               \
         for (; j + C * L <= outn; j += C * L) {                                                      \
@@ -84,7 +90,7 @@ typedef double vd8 __attribute__((vector_size(64), aligned(8)));
                 const WS *row = w + k * outn + j;                                                    \
                 for (int c = 0; c < C; c++) {                                                        \
                     V wc = CV(row + c * L);                                                          \
-                    for (int b = 0; b < B; b++) a[b][c] = a[b][c] + (T)x[b * in + k] * wc;           \
+                    for (int b = 0; b < B; b++) a[b][c] = a[b][c] + xt[t * B + b] * wc;              \
                 }                                                                                    \
             }                                                                                        \
             for (int b = 0; b < B; b++)                                                              \
@@ -203,18 +209,18 @@ static int q_compute(const qnet_t *q, int64_t task, const uint64_t *states, int6
     /* the thread's scratch, carved into 64-byte aligned pieces */
     size_t sizes[] = {sizeof(float) * (size_t)(BLOCK * hid), sizeof(float) * (size_t)(BLOCK * hid),
                       sizeof(double) * (size_t)(BLOCK * H), sizeof(float) * (size_t)(NL * BLOCK * H + 1),
-                      (size_t)(BLOCK * NV + 1), (size_t)(BLOCK * NC + 1), (size_t)NL + 1,
+                      sizeof(int32_t) * (size_t)(BLOCK * NV + 1), (size_t)(BLOCK * NC + 1), (size_t)NL + 1,
                       sizeof(int32_t) * (size_t)(BLOCK * NS + 1), BLOCK, sizeof(float) * (size_t)(NC + 1),
-                      sizeof(double) * (size_t)(NS + 1)};
+                      sizeof(double) * (size_t)(NS + 1), sizeof(int32_t) * BLOCK};
     size_t total = 0;
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) total += (sizes[i] + 63) / 64 * 64;
     char *mem = scratch(0, total), *at = mem;
     if (!mem) return -1;
 #define CARVE(T, name, i) T *name = (T *)at; at += (sizes[i] + 63) / 64 * 64
     CARVE(float, h1, 0); CARVE(float, h2, 1); CARVE(double, pv, 2); CARVE(float, part, 3);
-    CARVE(uint8_t, valid, 4); CARVE(uint8_t, present, 5); CARVE(uint8_t, need, 6); CARVE(int32_t, count, 7);
+    CARVE(int32_t, valid, 4); CARVE(uint8_t, present, 5); CARVE(uint8_t, need, 6); CARVE(int32_t, count, 7);
     CARVE(int8_t, state, 8);                      /* per row: 0 compute, 1 goal holds (V), 2 nothing valid */
-    CARVE(float, y, 9); CARVE(double, mean, 10);
+    CARVE(float, y, 9); CARVE(double, mean, 10); CARVE(int32_t, nvalid, 11);
 #undef CARVE
     for (int64_t lo = 0; lo < n; lo += BLOCK) {
         int64_t nb = n - lo < BLOCK ? n - lo : BLOCK;
@@ -241,18 +247,33 @@ static int q_compute(const qnet_t *q, int64_t task, const uint64_t *states, int6
                 sat = holds(s, q->goal_pos + (int64_t)g * W, q->goal_neg + (int64_t)g * W, W);
             state[b] = 1;
             if (sat) continue;                              /* AUTO alone: every advantage centres to 0 */
-            uint8_t *ok = valid + b * NV, *pr = present + b * NC;
+            /* the valid variants: those of the always group and of the true atoms' groups that hold (a variant
+             * is listed under one of its positive atoms, Model.trigger_groups) */
+            int32_t *ok = valid + b * NV, nok = 0;
+            uint8_t *pr = present + b * NC;
             int32_t *cn = count + b * NS;
-            memset(pr, 0, (size_t)NC);
-            int any = 0;
-            for (int64_t j = 0; j < NV; j++) {
-                ok[j] = (uint8_t)holds(s, q->var_pos + j * W, q->var_neg + j * W, W);
-                if (!ok[j]) continue;
-                any = 1;
-                for (int32_t c = q->var_col0[j], ce = c + q->var_coln[j]; c < ce; c++) pr[q->var_cols[c]] = 1;
+            for (int64_t t = 0; t < q->n_always; t++) {
+                int32_t j = q->always[t];
+                if (holds(s, q->var_pos + (int64_t)j * W, q->var_neg + (int64_t)j * W, W)) ok[nok++] = j;
             }
-            state[b] = any ? 0 : 2;
-            if (!any) continue;
+            for (int64_t w = 0; w < W; w++) {
+                uint64_t x = s[w];
+                while (x) {
+                    int64_t i = w * 64 + __builtin_ctzll(x);
+                    x &= x - 1;
+                    if (i >= q->n_atoms) continue;
+                    for (int32_t t = q->trig0[i], te = q->trig0[i + 1]; t < te; t++) {
+                        int32_t j = q->trig_var[t];
+                        if (holds(s, q->var_pos + (int64_t)j * W, q->var_neg + (int64_t)j * W, W)) ok[nok++] = j;
+                    }
+                }
+            }
+            nvalid[b] = nok;
+            state[b] = nok ? 0 : 2;
+            if (!nok) continue;
+            memset(pr, 0, (size_t)NC);
+            for (int32_t t = 0; t < nok; t++)
+                for (int32_t c = q->var_col0[ok[t]], ce = c + q->var_coln[ok[t]]; c < ce; c++) pr[q->var_cols[c]] = 1;
             memset(cn, 0, sizeof(int32_t) * (size_t)NS);
             for (int64_t c = 0; c < NC; c++) if (pr[c]) cn[q->col_seg[c]]++;
             for (int64_t g = 0; g < NS; g++) if (cn[g] >= 2) need[q->seg_head[g]] = 1;
@@ -266,7 +287,8 @@ static int q_compute(const qnet_t *q, int64_t task, const uint64_t *states, int6
             double v = q->bv + dot_relu_d(pv + b * H, q->wv, H);
             if (state[b] == 1) { out[lo + b] = v; continue; }
             if (state[b] == 2) { out[lo + b] = -INFINITY; continue; }
-            const uint8_t *ok = valid + b * NV, *pr = present + b * NC;
+            const int32_t *ok = valid + b * NV;
+            const uint8_t *pr = present + b * NC;
             const int32_t *cn = count + b * NS;
             memset(mean, 0, sizeof(double) * (size_t)NS);
             for (int64_t c = 0; c < NC; c++) {
@@ -280,8 +302,8 @@ static int q_compute(const qnet_t *q, int64_t task, const uint64_t *states, int6
             }
             for (int64_t g = 0; g < NS; g++) if (cn[g] >= 2) mean[g] = mean[g] / (double)cn[g];
             double best = -INFINITY;
-            for (int64_t j = 0; j < NV; j++) {
-                if (!ok[j]) continue;
+            for (int32_t t = 0; t < nvalid[b]; t++) {
+                int32_t j = ok[t];
                 double a = 0.0;
                 for (int32_t c = q->var_col0[j], ce = c + q->var_coln[j]; c < ce; c++) {
                     int32_t col = q->var_cols[c], sg = q->col_seg[col];

@@ -591,6 +591,7 @@ class NativeQ:
         ws, bs = g(net.from_state.weight).T, g(net.from_state.bias)
         cols = [(s, d, v) for s, (d, p, vals) in enumerate(b.segs) for v in vals.tolist()]
         var_cols = [np.flatnonzero(row).tolist() for row in b.s_var]
+        groups = model.trigger_groups()             # variant -> one of its positive atoms (-1: none)
         tasks = list(model.tasks)
         goal0, goaln, gpos, gneg = [], [], [], []
         for t in tasks:
@@ -610,6 +611,9 @@ class NativeQ:
             "col_w": f32(np.stack([g(net.out[d].weight)[v] for _, d, v in cols]) if cols else np.zeros(1)),
             "col_b": f32([g(net.out[d].bias)[v] for _, d, v in cols] or [0.0]),
             "var_pos": words([o.pos for o in model.ops]), "var_neg": words([o.neg for o in model.ops]),
+            "trig0": i32(np.cumsum([0] + [len(groups.get(i, [])) for i in range(n)])),
+            "trig_var": i32(sum((list(groups.get(i, [])) for i in range(n)), []) or [0]),
+            "always": i32(groups.get(-1, []) or [0]),
             "var_col0": i32(np.cumsum([0] + [len(c) for c in var_cols])[:-1]),
             "var_coln": i32([len(c) for c in var_cols]), "var_cols": i32(sum(var_cols, []) or [0]),
             "goal0": i32(goal0), "goaln": i32(goaln), "goal_pos": words(gpos), "goal_neg": words(gneg)}
@@ -620,12 +624,14 @@ class NativeQ:
                                          "n_tasks")]
                         + [(k, P) for k in ("w1", "b1t", "w2", "b2", "wv1", "bv1", "wv")] + [("bv", ctypes.c_double)]
                         + [(k, P) for k in ("wh", "bh", "seg_head", "seg_pref", "col_seg", "col_w", "col_b",
-                                            "var_pos", "var_neg", "var_col0", "var_coln", "var_cols", "goal0",
-                                            "goaln", "goal_pos", "goal_neg", "memo")])
+                                            "var_pos", "var_neg", "trig0", "trig_var", "always")]
+                        + [("n_always", I)]
+                        + [(k, P) for k in ("var_col0", "var_coln", "var_cols", "goal0", "goaln", "goal_pos",
+                                            "goal_neg", "memo")])
 
         self.spec = Spec(W=W, n_atoms=n, hid=hid, H=H, n_live=len(b.live), n_seg=len(b.segs), n_col=len(cols),
                          n_var=len(model.ops), n_tasks=len(tasks), bv=float(g(net.value.bias)[0]),
-                         **{k: v.ctypes.data for k, v in a.items()})
+                         n_always=len(groups.get(-1, [])), **{k: v.ctypes.data for k, v in a.items()})
         self.lib, self.ctx = lib, ctypes.addressof(self.spec)
         self.spec.memo = self._memo = lib.qnet_memo_new(W, MEMO_LOG2) if memo else None
         self.fn = ctypes.cast(lib.qnet_q_max, ctypes.c_void_p).value     # the search's bn_native_fn
