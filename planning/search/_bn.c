@@ -70,6 +70,20 @@ static double now(void) {
     return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
 }
 
+/* The stats' section times are taken in ticks: the time-stamp counter where there is one (a few cycles to
+ * read, where clock_gettime costs as much as a width test), converted to seconds at the end with the ratio
+ * of seconds to ticks over the whole search. */
+#if defined(__x86_64__) || defined(__i386__)
+#include <x86intrin.h>
+static inline uint64_t ticks(void) { return __rdtsc(); }
+#else
+static inline uint64_t ticks(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (uint64_t)t.tv_sec * 1000000000ULL + (uint64_t)t.tv_nsec;
+}
+#endif
+
 /* ---- heaps ---------------------------------------------------------------------------------------- */
 /* 4-ary min-heaps (the pop order is the order of the keys alone, unique by their ticks, whatever the
  * heap's shape). H_B: (key, tick), key = -(G + gamma^d q). H_N: one integer (w, d, tick) packed so
@@ -178,7 +192,9 @@ typedef struct {
 
     /* stats */
     int64_t bellman, novelty, forfeited, stale, skipped, dropped, repushed, generated, value_calls, value_states;
-    double t_sim, t_nov, t_val;
+    uint64_t k_sim, k_nov;                     /* section ticks */
+    uint64_t k0; double s0;                    /* ticks and seconds at the start */
+    double t_val;
 
     int8_t *tr_kind; int32_t *tr_node; int64_t tr_cap, tr_n;
     int err;
@@ -337,7 +353,7 @@ static int scan(bn_t *b, int64_t lo, int64_t hi, const uint64_t *s) {
 /* EXPANSION_OF: the successors of a state, computed once (Model.successors' order). */
 static int expansion_of(bn_t *b, int32_t sid) {
     if (b->si[sid].succn >= 0) return 0;
-    double t0 = b->profile ? now() : 0.0;
+    uint64_t t0 = b->profile ? ticks() : 0;
     int64_t W = b->W;
     uint64_t s[64];
     memcpy(s, b->st + (int64_t)sid * W, (size_t)W * 8);      /* intern() may move b->st */
@@ -354,7 +370,7 @@ static int expansion_of(bn_t *b, int32_t sid) {
     }
     b->si[sid].succ0 = start;
     b->si[sid].succn = (int32_t)(b->n_succ - start);
-    if (b->profile) b->t_sim += now() - t0;
+    if (b->profile) b->k_sim += ticks() - t0;
     return 0;
 }
 
@@ -380,9 +396,9 @@ static int width_raw(bn_t *b, const uint64_t *s, const uint64_t *added) {
 static int width_of(bn_t *b, int32_t sid, const uint64_t *added) {
     sinfo_t *i = &b->si[sid];
     if (i->w_has && (i->w_val == 0 || i->w_ver == (int32_t)b->nov_version)) return i->w_val;
-    double t0 = b->profile ? now() : 0.0;
+    uint64_t t0 = b->profile ? ticks() : 0;
     int w = width_raw(b, b->st + (int64_t)sid * b->W, added);
-    if (b->profile) b->t_nov += now() - t0;
+    if (b->profile) b->k_nov += ticks() - t0;
     i->w_has = 1; i->w_ver = (int32_t)b->nov_version; i->w_val = (int8_t)w;
     return w;
 }
@@ -641,6 +657,8 @@ void bn_free(bn_t *b) {
 /* Lines 2-4: the reference terminal (if any, admitted first), then the root. */
 int bn_start(bn_t *b, const uint64_t *root, int has_ref, const uint64_t *ref_state, int64_t ref_depth,
              double ref_G, int64_t ref_cost) {
+    b->k0 = ticks();
+    b->s0 = now();
     if (has_ref) {
         int32_t r = intern(b, ref_state);
         if (r < 0 || admit_terminal(b, r, (int32_t)ref_depth, ref_G, ref_cost, -1, -1)) return BN_ENOMEM;
@@ -704,9 +722,9 @@ int bn_run(bn_t *b) {
             int32_t nid = novelty_pop(b);
             if (b->err) return BN_ENOMEM;
             if (nid < 0) continue;
-            double t0 = b->profile ? now() : 0.0;
+            uint64_t t0 = b->profile ? ticks() : 0;
             nov_register(b, b->st + (int64_t)b->nd[nid].sid * b->W);
-            if (b->profile) b->t_nov += now() - t0;
+            if (b->profile) b->k_nov += ticks() - t0;
             b->e++;
             b->novelty++;
             if (trace(b, 1, nid) || expand(b, nid, 1)) return BN_ENOMEM;
@@ -727,7 +745,11 @@ void bn_get_stats(const bn_t *b, bn_stats *s) {
     s->stale = b->stale; s->skipped = b->skipped; s->dropped = b->dropped; s->repushed = b->repushed;
     s->generated = b->generated; s->nodes = b->n_nodes; s->terminals = b->n_term;
     s->value_calls = b->value_calls; s->value_states = b->value_states; s->states = b->n_st;
-    s->trace = b->tr_n; s->t_sim = b->t_sim; s->t_nov = b->t_nov; s->t_val = b->t_val;
+    s->trace = b->tr_n; s->t_val = b->t_val;
+    uint64_t k = ticks() - b->k0;
+    double per = k ? (now() - b->s0) / (double)k : 0.0;       /* seconds per tick over the search */
+    s->t_sim = (double)b->k_sim * per;
+    s->t_nov = (double)b->k_nov * per;
 }
 
 int64_t bn_need(const bn_t *b, uint64_t **states, double **q) {
