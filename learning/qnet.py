@@ -632,7 +632,7 @@ class NativeQ:
         self.spec = Spec(W=W, n_atoms=n, hid=hid, H=H, n_live=len(b.live), n_seg=len(b.segs), n_col=len(cols),
                          n_var=len(model.ops), n_tasks=len(tasks), bv=float(g(net.value.bias)[0]),
                          n_always=len(groups.get(-1, [])), **{k: v.ctypes.data for k, v in a.items()})
-        self.lib, self.ctx = lib, ctypes.addressof(self.spec)
+        self.lib, self.ctx, self.model = lib, ctypes.addressof(self.spec), model
         self.spec.memo = self._memo = lib.qnet_memo_new(W, MEMO_LOG2) if memo else None
         self.fn = ctypes.cast(lib.qnet_q_max, ctypes.c_void_p).value     # the search's bn_native_fn
         self.support = i32(enc.support)

@@ -25,6 +25,7 @@
 #define BN_DONE 0
 #define BN_NEED 1
 #define BN_ENOMEM -1
+#define BN_EVALUE -2                   /* the compiled value refused its input (another model or task) */
 
 typedef int (*bn_native_fn)(void *ctx, int64_t task, const uint64_t *states, int64_t n, int64_t W, double *out);
 
@@ -696,7 +697,7 @@ int bn_run(bn_t *b) {
                         return BN_NEED;
                     }
                     double t0 = now();
-                    if (b->native(b->native_ctx, b->task, b->need, b->need_n, b->W, b->need_q)) return BN_ENOMEM;
+                    if (b->native(b->native_ctx, b->task, b->need, b->need_n, b->W, b->need_q)) return BN_EVALUE;
                     b->t_val += now() - t0;
                 }
             resume_flush:

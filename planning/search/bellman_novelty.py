@@ -60,8 +60,9 @@ first search), and its heaps, counters, dedup tables, width cache and value
 batches are the Python loop's, so with the same value it makes the same
 choices bit for bit (tests/planning/test_bn_kernel.py). A value that offers
 a compiled q_max (`value.native_q_max(task)` -> an object with `fn`, a
-`bn_native_fn` of _bn.c, `ctx` and optionally `v_ap`; the Q-network's,
-`learning.qnet.NativeQ`) is called from C at each flush with exactly the
+`bn_native_fn` of _bn.c, `ctx`, optionally `v_ap` and the `model` it was
+compiled for; the Q-network's, `learning.qnet.NativeQ`) is called from C
+at each flush with exactly the
 states the flush needs (no prefetch: a compiled value's result for a state
 does not depend on the batch, and its per-call cost is nil), and its `v_ap`
 scores the terminals; any other value is called back in Python with the
@@ -695,6 +696,8 @@ def _search_c(k: _Kernel, model, state: int, task, value, *, budget: int, beta: 
     fast = None
     if native_value and callable(getattr(value, "native_q_max", None)):
         fast = value.native_q_max(task)          # None where the value has no compiled form here
+        if fast is not None and getattr(fast, "model", model) is not model:
+            fast = None                              # compiled for another model: the value's own q_max
     spec = k.with_goal(task)
     h = lib.bn_new(ctypes.addressof(spec), int(budget), int(depth_cap), _ptr(gpow), float(scale),
                    int(prefetch) if fast is None else NATIVE_PREFETCH, int(task.index), 1, int(trace is not None))
@@ -726,8 +729,10 @@ def _search_c(k: _Kernel, model, state: int, task, value, *, budget: int, beta: 
             lib.bn_add_value_time(h, clock() - t0)
             np.ctypeslib.as_array(ctypes.cast(pq, ctypes.POINTER(ctypes.c_double)), (n,))[:] = q
             rc = lib.bn_run(h)
+        if rc == -2:
+            raise ValueError("the value's compiled q_max refused the search's states or task (another model?)")
         if rc < 0:
-            raise MemoryError("the compiled Bellman–Novelty search ran out of memory")
+            raise MemoryError("the compiled Bellman–Novelty search ran out of memory (or past 2^32 pushes)")
         st = _Stats()
         lib.bn_get_stats(h, ctypes.byref(st))
         nt = st.terminals
