@@ -62,11 +62,10 @@ choices bit for bit (tests/planning/test_bn_kernel.py). A value that offers
 a compiled q_max (`value.native_q_max(task)` -> an object with `fn`, a
 `bn_native_fn` of _bn.c, `ctx`, optionally `v_ap` and the `model` it was
 compiled for; the Q-network's, `learning.qnet.NativeQ`) is called from C
-at each flush with exactly the
-states the flush needs (no prefetch: a compiled value's result for a state
-does not depend on the batch, and its per-call cost is nil), and its `v_ap`
-scores the terminals; any other value is called back in Python with the
-batches above. Elsewhere, or with `ANTICIPATORY_BN_NATIVE=0` or no C
+at each flush with exactly the states the flush needs (no prefetch: a
+compiled value's result for a state does not depend on the batch, and its
+per-call cost is nil), and its `v_ap` scores the terminals; any other value
+is called back in Python with the batches above. Elsewhere, or with `ANTICIPATORY_BN_NATIVE=0` or no C
 compiler, the Python loop below runs. `kernel=` ("auto", "c", "python") and
 `native_value=` force a path. The loop before the kernel is kept verbatim in
 `planning.search.bellman_novelty_reference` (the benchmark's reference).
