@@ -237,7 +237,7 @@ THESIS_PROTOCOL = ("myopic-rl-greedy-abandon", "anticipatory-rl-greedy-abandon")
 """Table A.4's greedy rows replayed under the thesis's own failure protocol (abandon), beside ours."""
 AGENTS = ("myopic-rl-greedy", "myopic-rl-guided", "gnn", "gnn-augmented", "anticipatory-rl-greedy",
           "anticipatory-rl-guided")
-COMPARISONS = (("anticipatory-rl-guided", "gnn-augmented"), ("anticipatory-rl-guided", "myopic-rl-guided"),
+COMPARISONS = (("anticipatory-rl-guided", "gnn-augmented"), ("anticipatory-rl-guided", "gnn-augmented-focused"), ("anticipatory-rl-guided", "myopic-rl-guided"),
                ("anticipatory-rl-guided", "myopic-oracle"), ("anticipatory-rl-guided", "clairvoyant-2"))
 """The pairs the statistics section tests (A against B); the first is the thesis's."""
 
