@@ -45,6 +45,7 @@ import numpy as np
 from planning.errors import DomainError
 from planning.world.agents import Planner, Reply
 
+from learning.gnn_candidates import FocusedCandidates, Region, actions_along
 from learning.gnn_value import GNNValue, model_summary
 from learning.greedy import checkpoint_run_name
 
@@ -110,66 +111,6 @@ class ClauseGoal:
     def satisfied(self, state: int) -> bool:
         o = self.bindings[0]
         return state & o.pos == o.pos and not state & o.neg
-
-
-class Region:
-    """Where the agent is along a path and where one move takes it, and where a clause's places are."""
-
-    def __init__(self, model):
-        from planning.domain.roles import agent_relations, position_predicates
-
-        self.model = model
-        locs = set(model.locations)
-        self.locations = locs
-        self.position = {i: a[1] for i, a in enumerate(model.atoms) if a[0] in position_predicates(model, locs)}
-        held = agent_relations(model, locs)
-        self.held = {i: a[1] for i, a in enumerate(model.atoms) if a[0] in held and len(a) == 2}
-        self.placed = {i: (a[1], a[2]) for i, a in enumerate(model.atoms)
-                       if len(a) == 3 and a[1] not in locs and (a[2] in locs or a[2] in model.objects)}
-        pos_mask = sum(1 << i for i in self.position)
-        self.moves: dict[str, set] = {}
-        for op in model.ops:
-            src = [self.position[i] for i in _bits(op.pos & pos_mask)]
-            dst = [self.position[i] for i in _bits(op.add & pos_mask)]
-            for a in src:
-                self.moves.setdefault(a, set()).update(b for b in dst if b != a)
-
-    def agent_at(self, state: int) -> str | None:
-        return next((loc for i, loc in self.position.items() if state >> i & 1), None)
-
-    def around(self, path: list[int]) -> set:
-        """The locations the agent stands at along the path, plus those one move away."""
-        on = {loc for s in path if (loc := self.agent_at(s)) is not None}
-        return on | {b for a in on for b in self.moves.get(a, ())}
-
-    def where(self, state: int, obj: str) -> str | None:
-        """The location of an object now: through containers; a held object is at the agent's location."""
-        at = {}
-        for i, (o, x) in self.placed.items():
-            if state >> i & 1:
-                at.setdefault(o, x)
-        seen, cur = set(), obj
-        while cur not in self.locations and cur not in seen:
-            seen.add(cur)
-            if any(state >> i & 1 and o == cur for i, o in self.held.items()):
-                return self.agent_at(state)
-            if cur not in at:
-                return None
-            cur = at[cur]
-        return cur if cur in self.locations else None
-
-    def places(self, state: int, atoms) -> set:
-        """The locations a clause's atoms name, and where the objects they name are now."""
-        out = set()
-        for i in atoms:
-            for arg in self.model.atoms[i][1:]:
-                out.add(arg if arg in self.locations else self.where(state, arg))
-        out.discard(None)                  # an object that is nowhere now (the machine water, used up)
-        return out
-
-
-def _bits(mask: int) -> list[int]:
-    return [i for i in range(mask.bit_length()) if mask >> i & 1]
 
 
 class CandidateCache:
@@ -283,7 +224,6 @@ class GNNNativePlanner(Planner):
         `candidates`: the CandidateCache file (None: the default one; "none": no cache)."""
         from oracles.myopic import MyopicOracle
 
-        from learning.gnn_candidates import FocusedCandidates
         from learning.gnn_dataset import ClauseLibrary, DatasetConfig
 
         if generator not in GENERATORS:
@@ -369,7 +309,6 @@ class GNNNativePlanner(Planner):
         """The clauses planned ([ClauseGoal], in order, at most max_clauses) and how many the generator
         proposed. `plan`: the myopic plan's actions (default: recovered from the path)."""
         if self.focused is not None:
-            from learning.gnn_candidates import actions_along
 
             found = self.focused.clauses(state, actions_along(self.model, myopic_path) if plan is None else plan,
                                          myopic_path)

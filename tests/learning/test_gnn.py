@@ -9,7 +9,8 @@ import torch
 from learning.gnn_dataset import DatasetConfig, label_states, load_dataset, save_dataset
 from learning.gnn_model import (THESIS_FEATURES, THESIS_PARAMETERS, GNNCostModel, InferenceGNN, load_gnn,
                                 parameter_count, read_gnn_checkpoint, save_gnn_checkpoint)
-from learning.gnn_native import GNNNativePlanner, Region, candidate_accuracy, select
+from learning.gnn_candidates import Region
+from learning.gnn_native import GNNNativePlanner, candidate_accuracy, select
 from learning.gnn_train import TrainConfig, build_model, evaluate_l1, split, train
 from learning.gnn_value import GNNValue
 from learning.graph import GraphEncoder
