@@ -578,21 +578,8 @@ def reachable_states(model, limit: int = 20_000, target: int | None = None) -> t
     satisfied tasks (the first satisfied binding, as the world applies it), breadth first, at most `limit`;
     stops early once `target` is found. complete: the whole reachable set was enumerated."""
     from collections import deque
-    from itertools import islice, product
 
-    derive = getattr(model, "axioms", None) or (lambda s: s)
-    entries = []
-    for masks, probs in model.resets:
-        every = 0
-        for c in masks:
-            every |= c
-        entries.append([(c, every) for c, p in zip(masks, probs) if p > 0])
-    roots = []
-    for combo in islice(product(*entries), limit):
-        s = model.init
-        for c, every in combo:
-            s = (s & ~every) | c
-        roots.append(derive(s))
+    roots = model.reset_worlds(limit)
     seen = set(roots)
     frontier = deque(seen)
     while frontier:

@@ -37,7 +37,6 @@ import argparse
 import re
 import sys
 from dataclasses import dataclass, field
-from itertools import islice, product
 from pathlib import Path
 
 import numpy as np
@@ -572,19 +571,7 @@ class Checker:
 
 def reset_worlds(model, limit: int = MAX_WORLDS) -> list[int]:
     """The worlds a reset can draw (each combination of the [[reset]] choices of probability > 0), at most `limit`."""
-    entries = []
-    for choices, probs in model.resets:
-        every = 0
-        for c in choices:
-            every |= c
-        entries.append([(c, every) for c, p in zip(choices, probs) if p > 0])
-    out = []
-    for combo in islice(product(*entries), limit):
-        s = model.init
-        for choice, every in combo:
-            s = (s & ~every) | choice
-        out.append(s)
-    return list(dict.fromkeys(out))
+    return model.reset_worlds(limit)
 
 
 def _family(model, obj: str) -> str:

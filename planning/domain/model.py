@@ -238,6 +238,25 @@ class Model:
             state = (state & ~every) | choices[k]
         return self.derive(state)
 
+    def reset_worlds(self, limit: int | None = None) -> list[int]:
+        """Every world a reset can draw: each combination of the [[reset]] choices of probability > 0,
+        in order, without repeats, at most `limit` combinations (None: all)."""
+        from itertools import islice, product
+
+        entries = []
+        for choices, probs in self.resets:
+            every = 0
+            for c in choices:
+                every |= c
+            entries.append([(c, every) for c, p in zip(choices, probs) if p > 0])
+        out = []
+        for combo in islice(product(*entries), limit):
+            state = self.init
+            for choice, every in combo:
+                state = (state & ~every) | choice
+            out.append(self.derive(state))
+        return list(dict.fromkeys(out))
+
     def random_walk_states(self, n: int, seed: int, walk: int = 40) -> list[int]:
         """n states (repeats allowed) along seeded random walks of `walk` steps from world resets:
         a cheap spread of reachable states to probe a value or a heuristic on."""
