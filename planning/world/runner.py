@@ -34,11 +34,10 @@ from __future__ import annotations
 import json
 import sys
 import time
+from contextlib import nullcontext
 from pathlib import Path
 
 from tqdm import tqdm
-
-from dataclasses import dataclass
 
 from planning.atomic import OutputLock, write_json
 from planning.domain.batched import BatchedModel
@@ -81,6 +80,12 @@ FAILURE_PROTOCOLS = {
 DEFAULT_PROTOCOL = "fallback"
 COMPLETED_BY = {"fallback": "fallback", "abandon": "nothing"}
 """What a failed task's row says completed it (`completed_by`), per protocol."""
+
+def check_protocol(protocol: str) -> None:
+    """A one-line error for a failure protocol that is not one of FAILURE_PROTOCOLS."""
+    if protocol not in FAILURE_PROTOCOLS:
+        raise DomainError("--failure-protocol", f"unknown protocol '{protocol}' (known: {', '.join(FAILURE_PROTOCOLS)})")
+
 
 PLANNER_FAULTS = ("out-of-time", "out-of-memory", "crashed", "crash")
 """Row statuses of a planner that gave up or died (an unsolvable verdict is not a fault)."""
@@ -133,8 +138,7 @@ def complete_failed(row: dict, world: PersistentWorld, task, protocol: str = DEF
 
 def play_sequence(model, agent, seq, bar=None, protocol: str = DEFAULT_PROTOCOL) -> list[dict]:
     """Per-task rows of one sequence (failed tasks under `protocol`, see the module's docstring)."""
-    if protocol not in FAILURE_PROTOCOLS:
-        raise DomainError("--failure-protocol", f"unknown protocol '{protocol}' (known: {', '.join(FAILURE_PROTOCOLS)})")
+    check_protocol(protocol)
     world = PersistentWorld(model, reset_seed=seq.reset_seed)
     agent.start(model, seq)
     rows = []
@@ -485,17 +489,14 @@ def evaluate(model, agent, ids, out=None, progress=True, reference=None, force=F
 
     if not ids:
         raise DomainError("--sequences", "no sequences given")
-    if protocol not in FAILURE_PROTOCOLS:
-        raise DomainError("--failure-protocol", f"unknown protocol '{protocol}' (known: {', '.join(FAILURE_PROTOCOLS)})")
+    check_protocol(protocol)
     partial = Path(f"{out}.partial.json") if out else None
     if out:
         check_writable(out)
         check_writable(partial)
-        with OutputLock(out, "results file"):
-            return _evaluate(model, agent, ids, out, partial, progress, reference, force, strict, protocol,
-                             played_by_workers)
-    return _evaluate(model, agent, ids, out, partial, progress, reference, force, strict, protocol,
-                     played_by_workers)
+    with OutputLock(out, "results file") if out else nullcontext():
+        return _evaluate(model, agent, ids, out, partial, progress, reference, force, strict, protocol,
+                         played_by_workers)
 
 
 def _evaluate(model, agent, ids, out, partial, progress, reference, force, strict, protocol,
