@@ -42,9 +42,10 @@ NOT_APPLICABLE = [
 
 
 def results_name(domain: str, run_name: str, layout: str) -> str:
-    """`planning.world.runner.default_out`'s name for a domain other than the restaurant."""
-    base = run_name if layout in run_name else f"{run_name}-{layout}"
-    return f"results/{domain}-{base}.json"
+    """`planning.world.runner.default_out`'s name for a run of this domain."""
+    from planning.world.runner import results_file
+
+    return results_file(run_name, domain, layout)
 
 
 def rl_seeds(domain: str, layout: str, horizon: str) -> list[int]:

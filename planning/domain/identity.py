@@ -82,10 +82,3 @@ def mismatch(saved: dict, model) -> str | None:
     old, new = saved.get("domain_files") or {}, mine["domain_files"]
     changed = sorted(n for n in set(old) | set(new) if old.get(n) != new.get(n))
     return f"other content of domain {model.name!r} (changed: {', '.join(changed) or 'unknown files'})"
-
-
-def check_same_domain(path, saved: dict, model, what: str = "file") -> None:
-    """A one-line DomainError if the saved file was made from another domain or other domain content."""
-    diff = mismatch(saved, model)
-    if diff is not None:
-        raise DomainError(path, f"a {what} made from {diff}; pass --force to replay it, or --out another file")

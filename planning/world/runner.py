@@ -332,10 +332,15 @@ def default_out(agent, model, results_dir="results", protocol: str = DEFAULT_PRO
     """results/<run name>-<layout>.json (the layout once, where the run name already holds it); for any
     domain but the restaurant (whose committed names stay) the domain's name comes first, and a run under
     a failure protocol other than the default ends in `-<protocol>`."""
-    name = agent.run_name
-    base = name if model.layout in name else f"{name}-{model.layout}"
-    if model.name != "restaurant":
-        base = f"{model.name}-{base}"
+    return results_file(agent.run_name, model.name, model.layout, results_dir, protocol)
+
+
+def results_file(run_name: str, domain: str, layout: str, results_dir="results",
+                 protocol: str = DEFAULT_PROTOCOL) -> str:
+    """`default_out` from the names alone (for tools that name a run's file without building its agent)."""
+    base = run_name if layout in run_name else f"{run_name}-{layout}"
+    if domain != "restaurant":
+        base = f"{domain}-{base}"
     if protocol != DEFAULT_PROTOCOL:
         base = f"{base}-{protocol}"
     return f"{results_dir}/{base}.json"
