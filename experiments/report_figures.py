@@ -163,38 +163,59 @@ def cost_by_task_type(data: dict, path) -> Path | None:
 
 TRAINING_PANELS = (("success_rate", "success (last 100 tasks)"), ("task_return", "task return"),
                    ("selected_q", "selected Q"), ("td_target", "TD target"))
+SYMLOG_ABOVE = 1e3
+"""A panel whose values pass this (a diverged run's Q reaches 1e10) gets a symmetric log axis, linear
+within ±SYMLOG_LINEAR, so the healthy runs' curves stay apart."""
+SYMLOG_LINEAR = 10.0
 
 
-def _band(ax, runs: list[list[dict]], key, colour, label):
-    """Median over runs and the min–max band of `key`, on the steps every run logged."""
+def _band(ax, runs: list[list[dict]], key, colour, label) -> float:
+    """Median over runs and the min–max band of `key`, on the steps every run logged; returns the largest
+    |value| drawn (0 when nothing is)."""
     series = [{r["step"]: r[key] for r in rows if key in r and r.get(key) is not None} for rows in runs]
     series = [s for s in series if s]
     if not series:
-        return
+        return 0.0
     steps = sorted(set.intersection(*(set(s) for s in series)))
     if not steps:
-        return
+        return 0.0
     v = np.array([[s[t] for t in steps] for s in series], dtype=float)
-    ax.plot(steps, np.nanmedian(v, axis=0), color=colour, label=f"{label} ({len(series)})")
+    ax.plot(steps, np.nanmedian(v, axis=0), color=colour, label=label)
     if len(series) > 1:
         ax.fill_between(steps, np.nanmin(v, axis=0), np.nanmax(v, axis=0), color=colour, alpha=0.2)
+    return float(np.nanmax(np.abs(v)))
+
+
+def seeds_label(horizon: str, runs: dict) -> str:
+    """A legend entry that counts the runs drawn against every run behind the row, naming the seeds drawn:
+    'myopic: 3 of 5 seeds (8, 16, 42)'."""
+    drawn = [s for s, rows in runs.items() if rows]
+    return f"{horizon}: {len(drawn)} of {len(runs)} seed{'s' * (len(runs) != 1)} ({', '.join(map(str, drawn))})"
 
 
 def training_curves(logs: dict, path) -> Path | None:
-    """Figure A.1. logs[layout][horizon] = [metrics rows of each seed's run]: median and range over seeds."""
-    if not any(runs for per in logs.values() for runs in per.values()):
+    """Figure A.1. logs[layout][horizon] = {seed: metrics rows of its run, [] where no log is here}, every
+    finished run of the tables: median and min–max band over the seeds drawn; the legend counts them of all.
+    A panel past SYMLOG_ABOVE is drawn on a symmetric log axis (its y label says so)."""
+    if not any(rows for per in logs.values() for runs in per.values() for rows in runs.values()):
         return None
-    layouts = [layout for layout in logs if any(logs[layout].values())]
+    layouts = [layout for layout in logs if any(rows for runs in logs[layout].values() for rows in runs.values())]
     fig, axes = plt.subplots(len(layouts), 4, figsize=(15, 3.2 * len(layouts)), squeeze=False, layout="constrained")
     for row, layout in zip(axes, layouts):
         for ax, (key, title) in zip(row, TRAINING_PANELS):
-            for horizon, runs in logs[layout].items():
-                _band(ax, runs, key, HORIZON_COLOURS.get(horizon, "black"), horizon)
+            top = max([_band(ax, [rows for rows in runs.values() if rows], key,
+                             HORIZON_COLOURS.get(horizon, "black"), seeds_label(horizon, runs))
+                       for horizon, runs in logs[layout].items()], default=0.0)
+            if top > SYMLOG_ABOVE:
+                ax.set_yscale("symlog", linthresh=SYMLOG_LINEAR)
+                ax.set_ylabel(f"symlog (linear within ±{SYMLOG_LINEAR:g})", fontsize=7)
             ax.set_title(f"{layout}: {title}", fontsize=9)
             ax.set_xlabel("training step")
             ax.grid(alpha=0.3)
         row[0].legend(fontsize=7)
-    fig.suptitle("Figure A.1: training diagnostics (median over seeds, min–max band; legend: seeds)", fontsize=9)
+    fig.suptitle("Figure A.1: training diagnostics (median over the seeds drawn, min–max band; legend: seeds drawn "
+                 f"of the row's runs; Q and TD target on a symlog axis where a run passes {SYMLOG_ABOVE:,.0f})",
+                 fontsize=9)
     return _save(fig, path)
 
 

@@ -85,19 +85,28 @@ def clairvoyant_windows(layouts) -> list[str]:
 
 
 def checkpoints(paths: list[str], sha) -> list[str]:
+    """A row per Q-network checkpoint, with the training results file that names it (what made it)."""
     from learning.greedy import checkpoint_config
 
+    made = {d["checkpoint"]: (f.name, d) for f in sorted(Path("results").glob("training-*.json"))
+            if (d := read(f)) is not None and d.get("checkpoint")}
     body = []
     for path in paths:
         if not Path(path).is_file():
             continue
         cfg = checkpoint_config(path)
         ev = cfg.get("eval", {})
+        name, figures = made.get(path, (None, {}))
+        by = (f"`{name}`: `{figures.get('run', '—')}`, exported at `{(figures.get('provenance') or {}).get('commit', '')[:10]}`"
+              if name else "no training results file names it")
         body.append([f"`{path}`", cfg.get("horizon", "—"), cfg.get("seed", "—"), f"{cfg.get('step', 0):,}",
-                     pct(ev.get("success_rate"), 0, False), cfg.get("gamma", "—"), f"`{(sha(path) or '')[:16]}`"])
-    return table(["checkpoint", "horizon", "seed", "step", "100-task check", "γ", "sha256 (first 16)"], body) + [
+                     pct(ev.get("success_rate"), 0, False), cfg.get("gamma", "—"), f"`{(sha(path) or '')[:16]}`", by])
+    return table(["checkpoint", "horizon", "seed", "step", "100-task check", "γ", "sha256 (first 16)", "made by"],
+                 body) + [
         "", "*Step*: the training step of the kept checkpoint; *100-task check*: the trainer's greedy evaluation "
-            "that selected it. The thesis's checkpoints come from 500k-step runs."]
+            "that selected it; *made by*: the training results file that names the checkpoint, its run folder and "
+            "the commit it was exported at (the run's settings are in the training table). The thesis's checkpoints "
+            "come from 500k-step runs."]
 
 
 def minimal_example() -> list[str]:

@@ -42,7 +42,7 @@ from experiments.report_data import (ALL, Context, last_commit, load_rows, load_
                                      sha256, writer_pid)
 from planning.atomic import read_json
 from experiments.report_specs import (AGENTS, LAYOUTS, THESIS, THESIS_DISCOUNT, THESIS_MINIMAL, discount_runs,
-                                      rl_checkpoint, rl_run_dir, rows as row_specs, training_logs)
+                                      rl_run_dir, rows as row_specs, training_logs)
 from planning import cli
 from planning.atomic import write_json, write_text
 from planning.errors import DomainError
@@ -181,10 +181,8 @@ def figures(results: dict, folder: Path) -> tuple[dict[str, tuple[Path | None, s
                     for k in A5_ROWS] for layout, rows in results.items()}
     fa6 = {layout: {rows[k].row.label + ("" if len(rows[k].used) > 1 else " (SE over tasks: 1 seed)"): by_task_type(rows[k])
                     for k in A6_ROWS if rows[k].used} for layout, rows in results.items()}
-    runs = {layout: {h: [p for _, p in training_logs(layout, h)] for h in ("myopic", "anticipatory")} for layout in results}
-    logs = {layout: {h: [rows_ for p in paths if (rows_ := curve(p))] for h, paths in per.items()}
-            for layout, per in runs.items()}
-    a1_logs = [p for per in runs.values() for paths in per.values() for p in paths]
+    logs = {layout: {h: {s: curve(p) for s, p in training_logs(layout, h)} for h in ("myopic", "anticipatory")}
+            for layout in results}
     a2, a2_logs = {}, []
     if "three-room" in results:
         seed0 = {h: f"{rl_run_dir(h, 'three-room', 0)}/metrics.jsonl" for h in ("anticipatory", "myopic")}
@@ -193,9 +191,9 @@ def figures(results: dict, folder: Path) -> tuple[dict[str, tuple[Path | None, s
         a2["anticipatory, γ = 0.97 (main run)"] = curve(seed0["anticipatory"])
         a2["myopic"] = curve(seed0["myopic"])
     minimal = report_reference.read("results/minimal-example.json") or {}
-    a1, a1_missing = from_logs(lambda path: figs.training_curves(logs, path), folder / "fig-A-1-training.png", a1_logs)
+    a1 = figs.training_curves(logs, folder / "fig-A-1-training.png")
     a2_png, a2_missing = from_logs(lambda path: figs.refill_share(a2, path), folder / "fig-A-2-refill-water.png", a2_logs)
-    kept = {name: n for name, n in (("A.1", a1_missing), ("A.2", a2_missing)) if n}
+    kept = {"A.2": a2_missing} if a2_missing else {}
     need_logs = "training logs `runs/dqn/restaurant-<layout>-<horizon>-seed<N>/metrics.jsonl` (`python -m learning.dqn ...`; runs/ is not committed)"
     return {
         "5.1b": (figs.minimal_example({h: minimal[h] for h in ("myopic", "anticipatory") if h in minimal},
@@ -222,7 +220,10 @@ FIGURE_TEXT = {
            "include failed tasks, each completed by the fallback and charged what it executed plus its completion.",
     "5.4": "Figure 5.4: improvement over each layout's myopic oracle per agent, ours beside the thesis's.",
     "A.1": "Figure A.1: training diagnostics: success over the last 100 tasks, task return, selected Q and TD "
-           "target; median over seeds with the min–max band.",
+           "target; median over the seeds drawn with the min–max band. Every exported run of the learned rows' seeds "
+           "is counted; a run is drawn from the curve its results file keeps, else from its `runs/` log where "
+           "this checkout has one, and the legend gives the seeds drawn of all. Selected Q and TD target are on "
+           "a symmetric log axis (linear within ±10) where a diverged run passes 1,000.",
     "A.2": "Figure A.2: share of all actions so far that are refill-water, over training (three-room, seed 0; cumulative since step 0, as the authors' code counts it).",
     "A.4": "Figure A.4: distribution of the mean cost per task of each 50-task sequence (every seed's), per agent, "
            "sorted by median; the clairvoyant oracle is K = 3.",
@@ -378,7 +379,9 @@ def report(layouts, ctx: Context, out: Path, command: str) -> str:
                 lines += [f"Kept as committed: drawn in a checkout that had its training logs; this one lacks "
                           f"{kept[name]} of them (`runs/` is not committed), so it was not redrawn.", ""]
     lines += ["## Table A.5: the discount sweep (optional)", "", *discount_table(), ""]
-    ckpts = [rl_checkpoint(h, layout, s) for layout in layouts for h in ("myopic", "anticipatory") for s in range(5)]
+    ckpts = [str(p) for layout in layouts for h in ("myopic", "anticipatory")
+             for p in sorted(Path("checkpoints").glob(f"rl-{h}-{layout}-seed*.pt"),
+                             key=lambda p: (int(p.stem.split("-seed")[1].split("-")[0]), p.name))]
     for title, body in report_reference.everything(layouts, ckpts, sha256).items():
         lines += [f"## {title}", "", *body, ""]
     lines += ["## Runs not yet made", "", *T.missing_runs(results), "",

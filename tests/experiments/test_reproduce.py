@@ -147,13 +147,32 @@ def test_figures_draw_what_they_have_and_nothing_otherwise(tmp_path):
     run = lambda scale: [{"step": s, "success_rate": s / 1000, "task_return": scale * s / 1000,
                           "selected_q": 3.0 * scale * s / 1000, "td_target": 3.0 * scale * s / 1000,
                           "action_share": {"refill-water": 0.01 * s / 1000}} for s in range(0, 1001, 100)]
-    logs = {"two-room": {"myopic": [run(1), run(2)], "anticipatory": [run(3)]}}
+    logs = {"two-room": {"myopic": {0: run(1), 4: run(2)}, "anticipatory": {0: run(3)}}}
     assert figs.training_curves(logs, tmp_path / "a1.png").stat().st_size > 1000
     assert figs.refill_share({"anticipatory": run(1)}, tmp_path / "a2.png").is_file()
-    assert figs.training_curves({"two-room": {"myopic": []}}, tmp_path / "none.png") is None
+    assert figs.training_curves({"two-room": {"myopic": {}}}, tmp_path / "none.png") is None
+    assert figs.training_curves({"two-room": {"myopic": {0: []}}}, tmp_path / "none.png") is None
     assert figs.refill_share({}, tmp_path / "none.png") is None
     assert figs.greedy_vs_guided({"two-room": {}}, {}, tmp_path / "none.png") is None
     assert not (tmp_path / "none.png").exists()
+
+
+def test_training_curves_count_every_run_and_put_a_diverged_q_on_a_log_axis(tmp_path, monkeypatch):
+    """Figure A.1's legend counts the seeds drawn of every run behind the row (a run without a log here is
+    counted, not drawn); a panel a diverged run takes past 1,000 is symlog, the others stay linear."""
+    run = lambda q: [{"step": s, "success_rate": 0.5, "task_return": 1.0, "selected_q": q * s / 1000,
+                      "td_target": q * s / 1000} for s in range(0, 1001, 100)]
+    logs = {"three-room": {"myopic": {4: run(5e10), 8: [], 16: run(40.0)}, "anticipatory": {0: run(170.0), 4: []}},
+            "two-room": {"myopic": {0: run(40.0)}, "anticipatory": {0: run(150.0)}}}
+    monkeypatch.setattr(figs, "_save", lambda fig, path: fig)
+    fig = figs.training_curves(logs, tmp_path / "a1.png")
+    three, two = fig.axes[:4], fig.axes[4:]
+    assert [t.get_text() for t in three[0].get_legend().get_texts()] == [
+        "myopic: 2 of 3 seeds (4, 16)", "anticipatory: 1 of 2 seeds (0)"]
+    assert [ax.get_yscale() for ax in three] == ["linear", "linear", "symlog", "symlog"]
+    assert [ax.get_yscale() for ax in two] == ["linear"] * 4
+    assert [t.get_text() for t in two[0].get_legend().get_texts()] == [
+        "myopic: 1 of 1 seed (0)", "anticipatory: 1 of 1 seed (0)"]
 
 
 def test_report_only_from_the_committed_results(tmp_path, monkeypatch):
