@@ -10,7 +10,7 @@ reads what exists, `experiments.report_tables` renders them.
 Seeds are the thesis's: 4 checkpoint seeds per learned agent on the two-room
 restaurant and 5 on the three-room (Appendix A.2), GNN seeds 0, 4, 8 and 16
 (Appendix A.1). The GNN rows name the agents `gnn-native` and `gnn-guided`
-(SPEC.md, issue 18) and models `checkpoints/gnn-<variant>-<layout>-seed<N>.pt`.
+(SPEC.md) and models `checkpoints/gnn-<variant>-<layout>-seed<N>.pt`.
 """
 from __future__ import annotations
 

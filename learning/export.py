@@ -254,8 +254,8 @@ def rl_name(cfg: dict, varied: str = "") -> str:
 FIRST = ("out", "data", "steps", "epochs")        # what tells runs apart first: their folder, their length
 LABELS = {"out": "run folder", "data": "dataset"}
 OLD_FIGURE_KEYS = ("domain", "layout", "horizon", "seed", "gamma", *LEGACY)
-"""What a Q-learning run's figures written before 2026-12 record of its settings (at top level; 'domain'
-is its domain folder there, 'run' its run folder; their 'steps' is the last step logged, not a setting)."""
+"""What a Q-learning run's figures without a 'config' record of its settings, at top level ('domain' is its
+domain folder there, 'run' its run folder; their 'steps' is the last step logged, not a setting)."""
 
 
 def _norm(key: str, value):
@@ -294,7 +294,7 @@ def run_difference(saved: dict, new: dict, keys=None) -> str | None:
 def figures_run(figs: dict) -> tuple[dict, list | None]:
     """(what a key-figures file records of the run it describes, as `run_difference` compares it, the settings
     it records where it records only some): a dataset's folder counts as its run folder; a Q-learning run's
-    figures from before 2026-12 kept some settings at top level (OLD_FIGURE_KEYS)."""
+    figures without a 'config' keep some settings at top level (OLD_FIGURE_KEYS)."""
     if isinstance(figs.get("dataset"), str):
         return {**figs, "config": {**(figs.get("config") or {}), "out": figs["dataset"]}}, None
     if "config" in figs:
