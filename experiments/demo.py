@@ -9,7 +9,10 @@ terminal of its own search instead of the myopic plan, the plan it executed,
 so the investments it makes (a jar filled and parked, a cup left ready) can be
 read off directly.
 
-    python -m experiments.demo --layout three-room --sequence 0 --checkpoint checkpoints/rl-anticipatory-three-room-seed0.pt [--tasks 50]
+    python -m experiments.demo --layout three-room --sequence 0 --value q-network:checkpoints/rl-anticipatory-three-room-seed0.pt [--tasks 50]
+
+`--value KIND:PATH` is any value of the registry (`learning.values`; a bare
+PATH is a Q-network checkpoint), e.g. `--value exact` on the minimal domain.
 
 Each agent plays with a progress bar. `make run` (the three-room, 50 tasks) takes
 about 20 s on one free core: 8 s to build the pattern databases of the exact
@@ -25,6 +28,7 @@ import time
 from tqdm import tqdm
 
 from learning.guided import ValueGuidedPlanner
+from learning.values import HELP
 from oracles.myopic import MyopicOracle
 from planning import cli
 from planning.atomic import write_json
@@ -38,18 +42,18 @@ def main() -> None:
     p = cli.parser(__doc__.splitlines()[0])
     p.add_argument("--sequence", type=int, default=0, help="canonical sequence (default: %(default)s)")
     p.add_argument("--tasks", type=int, default=50, help="its first N tasks (default: all 50)")
-    p.add_argument("--checkpoint", default=None,
-                   help="value checkpoint (default: checkpoints/rl-anticipatory-<layout>-seed0.pt)")
+    p.add_argument("--value", default=None,
+                   help=f"{HELP} (default: q-network:checkpoints/rl-anticipatory-<layout>-seed0.pt)")
     p.add_argument("--budget", type=int, default=None, help="search expansions per task (default: domain.toml [search])")
     args = p.parse_args()
     if args.tasks < 1:
         raise DomainError("--tasks", f"must be at least 1, not {args.tasks}")
     model = compile_domain(args.domain, args.layout)
-    checkpoint = args.checkpoint or f"checkpoints/rl-anticipatory-{model.layout}-seed0.pt"
+    value = args.value or f"q-network:checkpoints/rl-anticipatory-{model.layout}-seed0.pt"
     seq = load(model, [args.sequence])[0]
     seq = Sequence(seq.id, seq.reset_seed, seq.tasks[: args.tasks])
-    guided = ValueGuidedPlanner(model, checkpoint, budget=args.budget)
-    print(f"{model.name} {model.layout}, sequence {seq.id} ({len(seq.tasks)} tasks); value {checkpoint}, "
+    guided = ValueGuidedPlanner(model, value, budget=args.budget)
+    print(f"{model.name} {model.layout}, sequence {seq.id} ({len(seq.tasks)} tasks); value {value}, "
           f"β = {guided.beta:g}, budget {guided.budget} expansions\n")
     _build_planner_tables(model)
     t0 = time.perf_counter()
@@ -74,7 +78,7 @@ def main() -> None:
           f"saving {(c_m - c_g) / c_m:+.1%}")
     if args.out:
         write_json(args.out, {"domain": model.name, "layout": model.layout, "sequence": seq.id,
-                              "checkpoint": checkpoint, "config": guided.config,
+                              "value": value, "config": guided.config,
                               "myopic_cost_per_task": c_m, "guided_cost_per_task": c_g,
                               "myopic": myopic, "guided": ours})
 

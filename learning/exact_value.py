@@ -21,7 +21,8 @@ first task's completion bootstraps V_AP over them (anticipatory). That is
 `experiments.minimal_example.exact_placement_q`'s definition; longer terminal
 episodes would need the position in the state and are refused.
 
-States: everything reachable from every world reset (each combination of the
+`--value exact` (or `exact:myopic`) deploys it wherever a command takes a value
+(`learning.values`). States: everything reachable from every world reset (each combination of the
 [[reset]] choices) by actions and by the consumption of satisfied tasks.
 Meant for small domains (the minimal grid has 100 states); `max_states` guards.
 """
@@ -79,6 +80,16 @@ class ExactValue:
         self.bootstrap = self._bootstraps()
         self._enumerate(list(roots), max_states)
         self.iterations = self._iterate(tol, max_iter)
+
+    @classmethod
+    def load(cls, horizon, model) -> "ExactValue":
+        """The value registry's hook (`learning.values`): `exact` (anticipatory) or `exact:HORIZON`."""
+        return cls(model, horizon or "anticipatory")
+
+    @staticmethod
+    def record(horizon) -> dict:
+        """What a results file records of it: the horizon (γ, R_goal and the scale are the domain's)."""
+        return {"value": "exact (learning.exact_value)", "horizon": horizon or "anticipatory"}
 
     # ---- the MDP ---------------------------------------------------------
     def _bootstraps(self) -> np.ndarray:

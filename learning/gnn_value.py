@@ -17,8 +17,8 @@ twice runs the network once.
 
 `gnn-guided` (thesis Table 5.3, "GNN value, BN search") is the rl-guided agent
 (`learning.guided.ValueGuidedPlanner`) with this value in place of the
-Q-network's: the same search, the same reference plan, the same β, budget and
-depth cap.
+Q-network's (`--model PATH`, short for `--value gnn:PATH`): the same search, the
+same reference plan, the same β, budget and depth cap.
 """
 from __future__ import annotations
 
@@ -30,8 +30,9 @@ import torch
 from planning.errors import DomainError
 
 from learning.gnn_model import InferenceGNN, check_made_for, load_gnn
-from learning.guided import ValueGuidedPlanner
+from learning.guided import ValueGuidedPlanner, default_reference
 from learning.reward import cost_scale
+from learning.values import HELP
 
 CHUNK = 128       # graphs per forward pass: per state, InferenceGNN is fastest at 32-128 (0.19 ms) and slows
                   # past them (0.32 ms at 512, 0.56 ms at 2,000; three-room, one thread)
@@ -86,6 +87,18 @@ class GNNValue:
         self.forward_calls = 0
         self.forward_states = 0
 
+    @classmethod
+    def load(cls, path, model) -> "GNNValue":
+        """The value registry's hook (`learning.values`): the value of a learning.gnn_train checkpoint."""
+        if path is None:
+            raise DomainError("--value", "gnn needs a checkpoint: gnn:PATH")
+        return cls(path, model)
+
+    @staticmethod
+    def record(path) -> dict:
+        """What a results file records of the checkpoint: its training summary and what the value is."""
+        return {**model_summary(path), "value": "-C_AP / cost_scale (learning.gnn_value)"}
+
     def c_ap(self, states: list) -> np.ndarray:
         """Ĉ_AP per state in PDDL cost units; the states not seen before in forward passes of at most
         CHUNK graphs (one for a search's batch)."""
@@ -122,21 +135,17 @@ class GNNGuidedPlanner(ValueGuidedPlanner):
     """The GNN's C_AP estimate as the value of the cost-bounded Bellman–Novelty search (Table 5.3)."""
 
     name = "gnn-guided"
+    value_kind = "gnn"
     checkpoint_prefix = "gnn-"
 
     @classmethod
     def options(cls, p) -> None:
-        p.add_argument("--model", required=True, help="GNN checkpoint (learning.gnn_train's best.pt)")
+        which = p.add_mutually_exclusive_group(required=True)
+        which.add_argument("--model", help="GNN checkpoint (learning.gnn_train's best.pt; short for --value gnn:PATH)")
+        which.add_argument("--value", help=HELP)
         cls.search_options(p)
 
     @classmethod
-    def from_args(cls, args, model) -> "GNNGuidedPlanner":
-        return cls(model, args.model, args.beta, args.budget, args.depth_cap, args.reference, args.time_limit)
-
-    def __init__(self, model, gnn, beta=None, budget=None, depth_cap=None, reference="internal", time_limit=60.0,
-                 value=None):
-        value = value or GNNValue(gnn, model)
-        super().__init__(model, str(gnn), beta, budget, depth_cap, reference, time_limit, value=value)
-
-    def describe_value(self, checkpoint: str, value) -> dict:
-        return {**model_summary(checkpoint), "value": "-C_AP / cost_scale (learning.gnn_value)"}
+    def from_args(cls, args, model, reference_planner=None) -> "GNNGuidedPlanner":
+        return cls(model, args.value or args.model, args.beta, args.budget, args.depth_cap, args.reference,
+                   args.time_limit, default_reference(args, reference_planner))

@@ -1,26 +1,34 @@
 """The value-guided agents (thesis §4.2): a learned value as the terminal heuristic of the Bellman–Novelty search.
 
-Per task: the myopic reference plan (our exact optimal planner by default, or
-Fast Downward with a time limit) is seeded as the first terminal and sets
-C_myo; the search (`planning.search.bellman_novelty`) then collects other ways
-of completing the task; the terminal whose post-consumption state has the
-highest V_AP among those costing at most β·C_myo is executed in full. With the
-myopic checkpoint this is the thesis's Myopic RL (guided) row, with the
-anticipatory one Anticipatory RL (guided).
+Per task: the reference plan (of any registered planner, `--reference`; by
+default the myopic oracle with our exact optimal planner) is seeded as the
+first terminal and sets C_myo; the search (`planning.search.bellman_novelty`)
+then collects other ways of completing the task; the terminal whose
+post-consumption state has the highest V_AP among those costing at most β·C_myo
+is executed in full. With the myopic checkpoint this is the thesis's Myopic RL
+(guided) row, with the anticipatory one Anticipatory RL (guided).
 
-The authors' reference planner was satisficing (LAMA); ours is optimal, so
-C_myo is the true myopic cost and the bound β·C_myo is never looser than
-theirs. β, the budget and the depth cap default to domain.toml [search] for
-the layout; where it gives no β, β = 1.0 (a one-line warning on stderr, once):
-only plans as cheap as the myopic one are eligible, so the agent plays exactly
-the myopic plan.
+The value is any of the value registry (`--value KIND:PATH`, `learning.values`;
+`--checkpoint PATH` is short for `--value q-network:PATH`). The authors'
+reference planner was satisficing (LAMA); ours is optimal, so C_myo is the true
+myopic cost and the bound β·C_myo is never looser than theirs. β, the budget
+and the depth cap default to domain.toml [search] for the layout; where it
+gives no β, β = 1.0 (a one-line warning on stderr, once): only plans as cheap
+as the myopic one are eligible, so the agent plays exactly the myopic plan.
+
+A reference planner other than the default myopic oracle (`--reference-agent
+"NAME [OPTIONS]"`) is built by the agent registry (`experiments.registry.build`,
+which knows every agent; learning/ may not import it) and handed to `from_args`;
+its options default to the agent's `reference_defaults`.
 """
 from __future__ import annotations
 
 import sys
 from dataclasses import asdict
+from pathlib import Path
 
-from learning.greedy import checkpoint_config, checkpoint_run_name
+from learning.greedy import checkpoint_run_name
+from learning.values import HELP, load_value, parse, record
 from oracles.myopic import PLANNERS, MyopicOracle
 from planning.errors import DomainError
 from planning.search.bellman_novelty import bellman_novelty_search
@@ -53,19 +61,23 @@ def default_beta_warning(model) -> None:
 
 
 class ValueGuidedPlanner(Planner):
-    """A value checkpoint deployed through the cost-bounded Bellman–Novelty search."""
+    """A learned value deployed through the cost-bounded Bellman–Novelty search."""
 
     name = "rl-guided"
+    value_kind = "q-network"          # the kind of a bare checkpoint path (--checkpoint PATH)
     checkpoint_prefix = "rl-"         # dropped from the checkpoint's name in the default results name
     keys = ("c_myo", "terminals", "eligible", "expansions", "source", "v_ap", "cost", "depth")
 
     @classmethod
     def options(cls, p) -> None:
-        p.add_argument("--checkpoint", required=True, help="Q-network checkpoint whose value guides the search")
+        which = p.add_mutually_exclusive_group(required=True)
+        which.add_argument("--checkpoint", help="Q-network checkpoint whose value guides the search "
+                                                "(short for --value q-network:PATH)")
+        which.add_argument("--value", help=HELP)
         cls.search_options(p)
 
-    @staticmethod
-    def search_options(p) -> None:
+    @classmethod
+    def search_options(cls, p) -> None:
         """The search's own flags, shared by every value-guided agent."""
         p.add_argument("--beta", type=float, default=None, help="cost slack β ≥ 1 (default: domain.toml [search])")
         p.add_argument("--budget", type=int, default=None, help="expansions per task (default: domain.toml [search])")
@@ -74,14 +86,29 @@ class ValueGuidedPlanner(Planner):
                        help="planner of the myopic reference plan (default: %(default)s, exact)")
         p.add_argument("--time-limit", type=float, default=60.0,
                        help="reference planner seconds per task (default: %(default)s)")
+        p.add_argument("--reference-agent", default=REFERENCE_AGENT,
+                       help="the registered planner that gives the reference plan, with its own options as one "
+                            "argument, e.g. 'clairvoyant --K 2'; its --planner and --time-limit default to "
+                            "--reference and --time-limit (default: %(default)s)")
 
     @classmethod
-    def from_args(cls, args, model) -> "ValueGuidedPlanner":
-        return cls(model, args.checkpoint, args.beta, args.budget, args.depth_cap, args.reference, args.time_limit)
+    def reference_defaults(cls, args) -> dict:
+        """The reference planner's options, unless its --reference-agent gives them: the myopic oracle's
+        planner and every reference's time limit."""
+        return {"planner": args.reference, "time_limit": args.time_limit}
 
-    def __init__(self, model, checkpoint, beta=None, budget=None, depth_cap=None, reference="internal",
-                 time_limit=60.0, value=None):
-        """`value`: any value of the protocol instead of the checkpoint's (then `checkpoint` only names it)."""
+    @classmethod
+    def from_args(cls, args, model, reference_planner=None) -> "ValueGuidedPlanner":
+        """`reference_planner`: the planner `args.reference_agent` names, built by the agent registry
+        (`experiments.registry.build`); None for the default one, built here."""
+        return cls(model, args.value or args.checkpoint, args.beta, args.budget, args.depth_cap, args.reference,
+                   args.time_limit, default_reference(args, reference_planner))
+
+    def __init__(self, model, value, beta=None, budget=None, depth_cap=None, reference="internal",
+                 time_limit=60.0, reference_planner=None):
+        """`value`: KIND:PATH, KIND, or a checkpoint PATH of `value_kind` (`learning.values`).
+        `reference_planner`: the planner of the reference plan (default: the myopic oracle with the
+        `reference` planner and `time_limit`)."""
         d = search_defaults(model)
         if beta is None and "beta" not in d:
             default_beta_warning(model)
@@ -92,29 +119,28 @@ class ValueGuidedPlanner(Planner):
             raise DomainError("--beta", f"must be at least 1 (the reference must stay eligible), not {self.beta}")
         if self.budget < 0 or self.depth_cap < 1:
             raise DomainError("--budget", f"budget {self.budget} and depth cap {self.depth_cap} must be positive")
-        self.model, self.checkpoint, self.value = model, str(checkpoint), value
-        self.reference = MyopicOracle(reference, time_limit)
-        self.config = {**self.describe_value(self.checkpoint, value),
+        self.model, self.value_name = model, str(value)
+        self.reference = reference_planner if reference_planner is not None else MyopicOracle(reference, time_limit)
+        self.value = load_value(self.value_name, model, self.value_kind)
+        self.config = {**record(self.value_name, self.value_kind),
                        "beta": self.beta, "budget": self.budget, "depth_cap": self.depth_cap,
-                       "reference": {**self.reference.config,
-                                     "note": "exact optimal: C_myo is the true myopic cost (the authors' was LAMA)"
-                                     if reference == "internal" else "Fast Downward blind A*, optimal within its time limit"}}
-        name = checkpoint_run_name(self.name, self.checkpoint, self.checkpoint_prefix)
+                       "reference": reference_record(self.reference)}
+        name = self.value_run_name()
         if (self.beta, self.budget, self.depth_cap) != (d.get("beta"), d.get("budget"), d.get("depth_cap")):
             name += f"-beta{self.beta:g}-budget{self.budget}-depth{self.depth_cap}"
-        self.run_name = name if reference == "internal" else f"{name}-{reference}"
+        self.run_name = name + reference_suffix(self.reference)
 
-    def describe_value(self, checkpoint: str, value) -> dict:
-        """What the results config records of the value: the Q-network checkpoint's settings, or its name."""
-        return checkpoint_config(checkpoint) if value is None else {"value": checkpoint}
+    def value_run_name(self) -> str:
+        """The default results name's start: a checkpoint of the agent's own kind named by its file
+        (less `checkpoint_prefix`), any other value by its kind, then its file name or argument."""
+        kind, arg = parse(self.value_name, self.value_kind)
+        if kind == self.value_kind and arg is not None:
+            return checkpoint_run_name(self.name, arg, self.checkpoint_prefix)
+        return f"{self.name}-{kind}" + ("" if arg is None else f"-{Path(arg).stem}")
 
     def start(self, model, sequence) -> None:
         if model is not self.model:
             raise DomainError(model.layout, f"this agent was built for {self.model.name} {self.model.layout}")
-        if self.value is None:
-            from learning.qnet import load_value_function
-
-            self.value = load_value_function(self.checkpoint, model)
         self.reference.start(model, sequence)
 
     def plan(self, state: int, task, upcoming: list) -> Reply:
@@ -126,3 +152,35 @@ class ValueGuidedPlanner(Planner):
                 "reference_status": ref.info.get("status"),
                 **{k: stats[k] for k in self.keys}, "search_seconds": round(stats["seconds"], 4)}
         return Reply(r.plan, info)
+
+
+REFERENCE_AGENT = "myopic-oracle"
+"""The default --reference-agent: the myopic oracle, with --reference's planner and --time-limit."""
+
+NOTES = {"internal": "exact optimal: C_myo is the true myopic cost (the authors' was LAMA)",
+         "fast-downward": "Fast Downward blind A*, optimal within its time limit"}
+
+
+def default_reference(args, reference_planner):
+    """The reference planner handed to `from_args`; None (the myopic oracle of `args`, built in
+    __init__) only where `args.reference_agent` names the default one."""
+    if reference_planner is None and args.reference_agent != REFERENCE_AGENT:
+        raise DomainError("--reference-agent", f"'{args.reference_agent}' is built by the agent registry "
+                                               f"(experiments.registry.build), not here")
+    return reference_planner
+
+
+def reference_record(reference) -> dict:
+    """What the results config records of the reference planner: the myopic oracle's config and what its
+    planner guarantees, any other planner's name and config."""
+    if isinstance(reference, MyopicOracle):
+        return {**reference.config, "note": NOTES[reference.planner]}
+    return {"agent": reference.name, **reference.config}
+
+
+def reference_suffix(reference) -> str:
+    """What the reference adds to the default results name: nothing for the exact myopic oracle, the
+    oracle's planner for another, any other planner's run name."""
+    if isinstance(reference, MyopicOracle):
+        return "" if reference.planner == "internal" else f"-{reference.planner}"
+    return f"-{reference.run_name}"

@@ -716,6 +716,20 @@ class ValueFunction:
         self.batched = BatchedQ(net, enc)
         self._native, self.memo = None, True
 
+    @classmethod
+    def load(cls, path, model) -> "ValueFunction":
+        """The value registry's hook (`learning.values`): the value of a learning.dqn checkpoint."""
+        if path is None:
+            raise DomainError("--value", "q-network needs a checkpoint: q-network:PATH")
+        return load_value_function(path, model)
+
+    @staticmethod
+    def record(path) -> dict:
+        """What a results file records of the checkpoint (`learning.greedy.checkpoint_config`)."""
+        from learning.greedy import checkpoint_config
+
+        return checkpoint_config(path)
+
     @property
     def native(self) -> "NativeQ | None":
         """The compiled engine, or None where there is no C compiler (or QNET_NATIVE=0)."""

@@ -141,14 +141,13 @@ def test_the_tools_say_where_they_take_a_silent_default(capsys, tmp_path):
     from learning import guided, reward
     from planning.domain.compiler import compile_source
     from planning.domain.folder import read_domain
-    from planning.value import ZeroValue
 
     folder = copy_minimal(tmp_path, lambda t: t.split("[search]")[0].replace(
         "cost_scale = 1            # PDDL cost units per RL reward unit\n", ""))
     model = compile_source(read_domain(folder, "grid"))
     capsys.readouterr()
     for _ in range(2):
-        agent = guided.ValueGuidedPlanner(model, "zero", value=ZeroValue())
+        agent = guided.ValueGuidedPlanner(model, "zero")
         assert reward.cost_scale(model) == 1.0
     assert agent.beta == 1.0
     err = capsys.readouterr().err.strip().splitlines()
@@ -156,7 +155,7 @@ def test_the_tools_say_where_they_take_a_silent_default(capsys, tmp_path):
                    "value-guided search plays exactly the myopic plan (set [search] beta, or pass --beta)",
                    f"warning: {folder}/domain.toml: no [reward] cost_scale: 1 PDDL cost unit per reward unit "
                    "(the rewards are -cost + R_goal; set [reward] cost_scale to scale them)"]
-    guided.ValueGuidedPlanner(model, "zero", beta=2.0, value=ZeroValue())
+    guided.ValueGuidedPlanner(model, "zero", beta=2.0)
     reward.cost_scale(compile_domain("domains/minimal", "grid"))
     assert capsys.readouterr().err == ""
 

@@ -1,0 +1,233 @@
+"""The value registry (learning.values): every kind loads by name, a new kind is one module and one row, and the
+guided agents, value_rank and bench_bn take any of them through --value."""
+import argparse
+import json
+import shutil
+import sys
+from pathlib import Path
+
+import pytest
+
+from experiments.registry import agent_class, agent_options, build
+from learning import values
+from learning.exact_value import ExactValue
+from planning.atomic import write_json
+from planning.domain.compiler import compile_domain
+from planning.errors import DomainError
+from planning.value import Value, ZeroValue
+from planning.world.runner import play_sequence
+from planning.world.sequences import Sequence, generate
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def checkpoint(minimal, tmp_path_factory):
+    from learning.encoding import Encoding
+    from learning.qnet import build_network, network_payload, save_checkpoint
+
+    enc = Encoding(minimal)
+    path = tmp_path_factory.mktemp("ckpt") / "rl-anticipatory-grid-seed0.pt"
+    return str(save_checkpoint(path, network_payload(build_network(enc, 16), enc,
+                                                     {"step": 1, "config": {"gamma": 0.99, "horizon": "anticipatory"}})))
+
+
+@pytest.fixture(scope="module")
+def gnn(minimal, tmp_path_factory):
+    from learning.gnn_model import GNNCostModel, save_gnn_checkpoint
+    from learning.graph import GraphEncoder
+
+    names = GraphEncoder(minimal).feature_names
+    net = GNNCostModel(len(names), width=8)
+    path = tmp_path_factory.mktemp("gnn") / "gnn-grid-seed0.pt"
+    return str(save_gnn_checkpoint(path, {"model": net.state_dict(), "dims": net.dims, "feature_names": names,
+                                          "layout": minimal.layout}))
+
+
+def guided(name, argv, model):
+    """The agent experiments.evaluate builds from `--agent name argv`."""
+    cls = agent_class(name)
+    p = argparse.ArgumentParser()
+    cls.options(p)
+    return build(cls, agent_options(cls, p.parse_args(argv)), model)
+
+
+def test_names_parse_to_a_kind_and_its_argument(checkpoint, gnn):
+    assert values.parse("gnn:x.pt") == ("gnn", "x.pt")
+    assert values.parse("exact") == ("exact", None) and values.parse("exact:myopic") == ("exact", "myopic")
+    assert values.parse("x.pt", "q-network") == ("q-network", "x.pt")
+    assert values.parse(gnn) == ("gnn", gnn) and values.parse(checkpoint) == ("q-network", checkpoint)
+    assert values.parse("q-network:c:/x.pt") == ("q-network", "c:/x.pt")
+    assert [line.split()[0] for line in values.describe().splitlines()] == list(values.VALUES)
+    with pytest.raises(DomainError, match="unknown value kind 'nope'"):
+        values.value_class("nope")
+    with pytest.raises(DomainError, match="zero takes no argument"):
+        values.load_value("zero:1", None)
+
+
+def test_every_row_loads_a_value_of_the_protocol(minimal, checkpoint, gnn):
+    names = {"q-network": f"q-network:{checkpoint}", "gnn": f"gnn:{gnn}", "exact": "exact", "zero": "zero"}
+    assert set(names) == set(values.VALUES)
+    s = [minimal.init]
+    for kind, name in names.items():
+        v = values.load_value(name, minimal)
+        assert isinstance(v, Value) and type(v) is values.value_class(kind), kind
+        assert v.q_max(s, minimal.tasks.get("clear(c)")).shape == v.v_ap(s).shape == (1,)
+    zero = values.load_value("zero", minimal)
+    assert isinstance(zero, ZeroValue) and zero.gamma == 0.99                  # the grid's [reward] gamma
+    exact, myopic = values.load_value("exact", minimal), values.load_value("exact:myopic", minimal)
+    assert (exact.horizon, myopic.horizon) == ("anticipatory", "myopic")
+    assert exact.v_ap(s)[0] == ExactValue(minimal).v_ap(s)[0]
+    assert values.record("exact:myopic") == {"value": "exact (learning.exact_value)", "horizon": "myopic"}
+    assert values.record("zero") == {"value": "zero"}
+    with pytest.raises(DomainError, match="q-network needs a checkpoint"):
+        values.load_value("q-network", minimal)
+
+
+def test_a_short_form_and_its_value_name_make_the_same_run(minimal, checkpoint, gnn):
+    """--checkpoint PATH is --value q-network:PATH, --model PATH is --value gnn:PATH: same config, same name."""
+    for name, short, kind, path, stem in (("rl-guided", "--checkpoint", "q-network", checkpoint, "anticipatory-grid"),
+                                          ("gnn-guided", "--model", "gnn", gnn, "grid")):
+        a = guided(name, [short, path, "--budget", "50"], minimal)
+        b = guided(name, ["--value", f"{kind}:{path}", "--budget", "50"], minimal)
+        assert (a.config, a.run_name) == (b.config, b.run_name)
+        assert a.run_name == f"{name}-{stem}-seed0-beta3-budget50-depth20"
+        assert a.config["reference"] == {"planner": "internal", "time_limit": 60.0, "search": "astar(pdb) by f-levels",
+                                         "note": "exact optimal: C_myo is the true myopic cost (the authors' was LAMA)"}
+    rl = guided("rl-guided", ["--checkpoint", checkpoint], minimal)
+    assert list(rl.config) == ["checkpoint", "step", "horizon", "gamma", "beta", "budget", "depth_cap", "reference"]
+    assert rl.run_name == "rl-guided-anticipatory-grid-seed0"
+    other = guided("gnn-guided", ["--value", f"q-network:{checkpoint}"], minimal)
+    assert other.run_name == "gnn-guided-q-network-rl-anticipatory-grid-seed0" and other.config["checkpoint"] == checkpoint
+    assert guided("rl-guided", ["--value", "exact:myopic"], minimal).run_name == "rl-guided-exact-myopic"
+
+
+TILT = '''
+
+
+class TiltValue:
+    """Prefers the states with the apple on one cell (the argument): V_AP 1 there, 0 elsewhere."""
+
+    loaded = []
+
+    def __init__(self, bit):
+        self.bit, self.gamma = bit, 1.0
+
+    @classmethod
+    def load(cls, cell, model):
+        cls.loaded.append(cell)
+        return cls(1 << model.atom_index[("at", "apple", cell)])
+
+    def q_max(self, states, task):
+        return np.zeros(len(states))
+
+    def v_ap(self, states):
+        return np.array([float(bool(s & self.bit)) for s in states])
+'''
+
+
+@pytest.fixture
+def tilt(monkeypatch, tmp_path):
+    """A throwaway value kind: its module on the path, its row in the registry."""
+    (tmp_path / "tilt_value.py").write_text(TILT)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setitem(values.VALUES, "tilt", ("tilt_value", "TiltValue", "the apple on one cell"))
+    yield
+    sys.modules.pop("tilt_value", None)
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory):
+    """The minimal grid with two canonical sequences of 4 tasks (each a reset, clear(c), then a delivery)."""
+    folder = tmp_path_factory.mktemp("domains") / "tiny"
+    shutil.copytree(ROOT / "domains" / "minimal", folder)
+    model = compile_domain(folder, "grid")
+    for rec in generate(model, count=2, length=4):
+        write_json(folder / "sequences" / "grid" / f"seq-{rec['id']:02d}.json", rec)
+    return folder
+
+
+def test_a_new_value_kind_is_one_module_and_one_row(minimal, tilt):
+    """Clearing C parks the apple on A or B at the same cost from these resets: tilt:b parks it on B, so
+    delivering to B is then free and to A costs the walk; the zero value plays the reference plan, which
+    parks it on A, as tilt:a does."""
+    clear, to_a, to_b = (minimal.tasks.get(t) for t in ("clear(c)", "deliver(a)", "deliver(b)"))
+    costs = {}
+    for name in ("tilt:a", "tilt:b", "zero"):
+        agent = guided("rl-guided", ["--value", name], minimal)
+        costs[name] = [[r["cost"] for r in play_sequence(minimal, agent, Sequence(0, reset, [clear, to]))]
+                       for reset in (0, 1) for to in (to_a, to_b)]
+    import tilt_value
+
+    assert tilt_value.TiltValue.loaded == ["a", "b"]
+    assert costs == {"tilt:a": [[11, 0], [11, 6], [10, 0], [10, 6]], "tilt:b": [[11, 6], [11, 0], [10, 6], [10, 0]],
+                     "zero": [[11, 0], [11, 6], [10, 0], [10, 6]]}
+    agent = guided("rl-guided", ["--value", "tilt:b"], minimal)
+    assert agent.run_name == "rl-guided-tilt-b" and agent.config["value"] == "tilt:b"
+
+
+def test_evaluate_plays_a_new_value_kind_and_exact_by_name(tiny, tilt, tmp_path, capsys):
+    from experiments.evaluate import main
+
+    out = {}
+    for name in ("tilt:b", "exact", "zero"):
+        path = tmp_path / f"{name.replace(':', '-')}.json"
+        sys.argv = ["evaluate", "--agent", "rl-guided", "--domain", str(tiny), "--layout", "grid", "--value", name,
+                    "--sequences", "0-1", "--out", str(path), "--no-progress"]
+        main()
+        out[name] = json.loads(path.read_text())
+    assert out["tilt:b"]["config"]["value"] == "tilt:b"
+    assert out["exact"]["config"]["horizon"] == "anticipatory"
+    assert out["zero"]["config"]["value"] == "zero" and out["tilt:b"]["agent"] == "rl-guided"
+    assert {k: [r["cost"] for r in d["per_task"]] for k, d in out.items()} == {
+        k: [12, 0, 0, 0, 12, 0, 0, 6] for k in out}
+
+
+def test_the_reference_is_any_registered_planner(minimal):
+    """--reference-agent names the reference planner and its options; the default is today's myopic oracle."""
+    from oracles.clairvoyant import ClairvoyantOracle
+
+    seq = Sequence(0, 1, [minimal.tasks.get("clear(c)"), minimal.tasks.get("deliver(b)")])
+    default = guided("rl-guided", ["--value", "exact"], minimal)
+    named = guided("rl-guided", ["--value", "exact", "--reference-agent", "myopic-oracle"], minimal)
+    assert (named.config, named.run_name) == (default.config, default.run_name)
+    untimed = lambda rows: [{k: v for k, v in r.items() if not k.endswith("seconds")} for r in rows]
+    assert untimed(play_sequence(minimal, named, seq)) == untimed(play_sequence(minimal, default, seq))
+    fd = guided("rl-guided", ["--value", "exact", "--reference-agent", "myopic-oracle --planner fast-downward"], minimal)
+    assert fd.run_name == "rl-guided-exact-fast-downward" and fd.config["reference"]["time_limit"] == 60.0
+    k2 = guided("rl-guided", ["--value", "exact", "--reference-agent", "clairvoyant --K 2"], minimal)
+    assert isinstance(k2.reference, ClairvoyantOracle) and k2.reference.time_limit == 60.0
+    assert k2.config["reference"]["agent"] == "clairvoyant-2" and k2.run_name == f"rl-guided-exact-{k2.reference.run_name}"
+    rows = play_sequence(minimal, k2, seq)
+    assert [r["success"] for r in rows] == [True, True]
+    with pytest.raises(DomainError, match="random is not a planner"):
+        guided("rl-guided", ["--value", "exact", "--reference-agent", "random"], minimal)
+    cls = agent_class("rl-guided")
+    with pytest.raises(DomainError, match="built by the agent registry"):
+        cls.from_args(agent_options(cls, value="exact", reference_agent="clairvoyant"), minimal)
+
+
+def test_value_rank_and_bench_bn_take_a_value_by_name(minimal, tmp_path, monkeypatch):
+    """value_rank scores `exact` against labels made from its own V_AP (a perfect ranking); bench_bn
+    runs the search on it along a seeded stream and records its kind."""
+    from learning import bench_bn, value_rank
+    from planning.domain.grounding import atom_text
+
+    exact = ExactValue(minimal)
+    states = list(dict.fromkeys(minimal.random_walk_states(60, seed=0)))
+    data = tmp_path / "data"
+    data.mkdir()
+    (data / "meta.json").write_text(json.dumps({
+        "domain": minimal.name, "layout": "grid", "n": len(states), "c_ap": (-100 * exact.v_ap(states)).tolist(),
+        "atoms": [[atom_text(k) for k in minimal.true_atoms(s)] for s in states]}))
+    row = value_rank.rank(["exact"], str(data), "domains/minimal")["values"][0]
+    assert row["value"] == "exact" and row["kind"] == "ExactValue"
+    assert row["all"]["spearman"] == 1.0 and row["all"]["slope_rl_per_pddl"] == pytest.approx(0.01)
+    out = tmp_path / "bench.json"
+    monkeypatch.setattr(sys, "argv", ["bench_bn", "--domain", "domains/minimal", "--layout", "grid", "--value", "exact",
+                                      "--stream", "--seed", "0", "--tasks", "6", "--budget", "100", "--quiet",
+                                      "--out", str(out)])
+    bench_bn.main()
+    r = json.loads(out.read_text())
+    assert (r["value"], r["checkpoint"], r["same_plans"]) == ("exact", None, r["searched_tasks"])
+    assert r["searched_tasks"] > 0
