@@ -19,10 +19,12 @@ mean seconds per task.
         --tasks 20 --out results/bench-bn-three-room.json
     python -m learning.bench_bn --layout two-room --checkpoint checkpoints/rl-anticipatory-two-room-seed0.pt \\
         --tasks 20 --out results/bench-bn-two-room.json
-    python -m learning.bench_bn --layout three-room --gnn checkpoints/gnn-faithful-three-room-seed0.pt --tasks 10
+    python -m learning.bench_bn --layout three-room --value gnn:checkpoints/gnn-faithful-three-room-seed0.pt --tasks 10
 
-(It lives in learning/, not planning/search/, because it loads a Q-network:
-planning may not import from learning.) It runs torch, BLAS and OpenMP on one
+`--value KIND:PATH` takes any value of the registry (`learning.values`;
+`--checkpoint PATH` is short for `--value q-network:PATH`, and without either
+the search runs on the zero value). (It lives in learning/, not planning/search/,
+because it loads learned values: planning may not import from learning.) It runs torch, BLAS and OpenMP on one
 thread (planning.parallel.one_thread); on a shared machine run it under
 `nice` and read the ratios, not the absolute times. `--no-reference` times
 the new search alone.
@@ -34,17 +36,16 @@ import time
 
 import numpy as np
 
-from learning.qnet import load_value_function
 from planning import cli
 from planning.atomic import write_json
 from planning.world.runner import results_provenance
 from planning.domain.batched import BatchedModel
 from planning.domain.compiler import compile_domain
 from learning.guided import search_defaults
+from learning.values import HELP, load_value, parse
 from planning.search.bellman_novelty import DEPTH_CAP, PREFETCH, bellman_novelty_search
 from planning.search.bellman_novelty_reference import bellman_novelty_search_reference
 from planning.search.optimal import optimal_plan
-from planning.value import ZeroValue
 from planning.world.task_stream import PersistentWorld, draw_tasks
 
 PARTS = ("seconds", "value", "simulator", "novelty", "expansions", "value_calls", "value_states", "cpu")
@@ -157,8 +158,8 @@ def benchmark(model, value, tasks: list, reset_seed: int, budget: int, beta: flo
 def main() -> None:
     p = cli.parser(__doc__.splitlines()[0], seed=True)
     which = p.add_mutually_exclusive_group()
-    which.add_argument("--checkpoint", default=None, help="Q-network checkpoint (default: none, the zero value)")
-    which.add_argument("--gnn", default=None, help="a GNN checkpoint instead: its C_AP estimate as the value")
+    which.add_argument("--checkpoint", default=None, help="Q-network checkpoint (short for --value q-network:PATH)")
+    which.add_argument("--value", default="zero", help=f"{HELP} (default: %(default)s)")
     p.add_argument("--tasks", type=int, default=20, help="tasks to play (default: %(default)s)")
     p.add_argument("--sequence", type=int, default=0, help="canonical sequence (default: %(default)s)")
     p.add_argument("--stream", action="store_true", help="a stream drawn with --seed instead of the sequence")
@@ -177,14 +178,10 @@ def main() -> None:
 
     one_thread()
     model = compile_domain(args.domain, args.layout)
-    if args.gnn:
-        from learning.gnn_value import GNNValue
-        value = GNNValue(args.gnn, model)
-    elif args.checkpoint:
-        value = load_value_function(args.checkpoint, model)
+    kind, arg = parse(args.checkpoint or args.value, "q-network")
+    value = load_value(args.checkpoint or args.value, model, "q-network")
+    if callable(getattr(value, "set_memo", None)):
         value.set_memo(args.memo)
-    else:
-        value = ZeroValue(float(model.config.get("reward", {}).get("gamma", 1.0)))
     if args.stream:
         tasks, reset = draw_tasks(model, args.seed, args.tasks), args.seed
     else:
@@ -216,9 +213,9 @@ def main() -> None:
                   f"{r['no_memo']['seconds_per_task']:.3f} s per task, speed-up {up['per_expansion']:.1f}x per "
                   f"expansion ({up['cpu']:.1f}x in CPU time)")
     if args.out:
-        config = {"layout": model.layout, "checkpoint": args.gnn or args.checkpoint, "budget": budget,
-                  "beta": beta, "depth_cap": args.depth_cap, "prefetch": args.prefetch, "memo": args.memo,
-                  "sequence": None if args.stream else args.sequence, "tasks": args.tasks}
+        config = {"layout": model.layout, **({} if kind == "q-network" else {"value": kind}), "checkpoint": arg,
+                  "budget": budget, "beta": beta, "depth_cap": args.depth_cap, "prefetch": args.prefetch,
+                  "memo": args.memo, "sequence": None if args.stream else args.sequence, "tasks": args.tasks}
         write_json(args.out, {**config, **r, "provenance": results_provenance(config)})
         print(f"wrote {args.out}")
 

@@ -1,15 +1,16 @@
 """How well a value ranks states by preparedness: its V_AP against the exact C_AP.
 
     python -m learning.value_rank --data runs/gnn/three-room-faithful \
-        --value checkpoints/rl-anticipatory-three-room-seed0.pt [--value CKPT ...] [--out FILE]
+        --value checkpoints/rl-anticipatory-three-room-seed0.pt [--value KIND:PATH ...] [--out FILE]
 
 The value-guided search uses a value only to rank the terminal states it reaches
 (thesis §4.2), so what matters is the order V_AP puts states in. The labelled
 states of a `learning.gnn_dataset` folder carry their exact one-task C_AP (the
 labelling oracle, all task instantiations): how much the next task is expected
 to cost from there. A value that knows preparedness ranks a state with a lower
-C_AP higher. Per value (a Q-network checkpoint of learning.dqn, or a GNN
-checkpoint of learning.gnn_train, whose V_AP is -Ĉ_AP):
+C_AP higher. Per value (any of the value registry, `learning.values`: a bare
+checkpoint path is a Q-network's of learning.dqn or a GNN's of learning.gnn_train,
+whose V_AP is -Ĉ_AP, by what its file says; `exact` on small domains):
 
 - the Spearman and Kendall rank correlations of V_AP with -C_AP, and the share
   of the pairs of states with different C_AP that V_AP orders the same way;
@@ -38,16 +39,7 @@ from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 from planning.world.runner import results_provenance
 
-
-def load_value(path, model):
-    """The value of a checkpoint: a Q-network's ValueFunction, or a GNN's GNNValue (by the file's kind)."""
-    from learning.gnn_model import is_gnn_checkpoint
-
-    if is_gnn_checkpoint(path):
-        from learning.gnn_value import GNNValue
-        return GNNValue(path, model)
-    from learning.qnet import load_value_function
-    return load_value_function(path, model)
+from learning.values import HELP, load_value
 
 
 def agreement(v: np.ndarray, c_ap: np.ndarray) -> dict:
@@ -64,8 +56,8 @@ def agreement(v: np.ndarray, c_ap: np.ndarray) -> dict:
 
 
 def rank(values: list, data: str, domain: str) -> dict:
-    """The figures of the module's docstring, per value (a checkpoint path, or any object of the
-    Value protocol), over the dataset's labelled states."""
+    """The figures of the module's docstring, per value (a value's name, KIND:PATH, KIND or a checkpoint
+    path, or any object of the Value protocol), over the dataset's labelled states."""
     from learning.gnn_dataset import read_meta
     from learning.gnn_model import check_made_for
 
@@ -85,7 +77,7 @@ def rank(values: list, data: str, domain: str) -> dict:
     for value in values:
         name = str(value) if isinstance(value, (str, Path)) else type(value).__name__
         if isinstance(value, (str, Path)):
-            value = load_value(value, model)
+            value = load_value(str(value), model)
         keep = np.isfinite(labels)
         row = {"value": name, "kind": type(value).__name__, "gamma": value.gamma}
         payload = getattr(value, "payload", None)
@@ -109,7 +101,8 @@ def rank(values: list, data: str, domain: str) -> dict:
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--data", required=True, help="a learning.gnn_dataset folder (states labelled with exact C_AP)")
-    p.add_argument("--value", action="append", required=True, help="a Q-network or GNN checkpoint (repeatable)")
+    p.add_argument("--value", action="append", required=True,
+                   help=f"{HELP}; a bare PATH is a Q-network or GNN checkpoint (repeatable)")
     p.add_argument("--domain", default="domains/restaurant", help="domain folder (default: %(default)s)")
     p.add_argument("--out", help="results JSON (default: results/value-rank-<dataset folder name>.json)")
 
