@@ -18,12 +18,12 @@ from __future__ import annotations
 import argparse
 import sys
 
-from oracles.command import figures, play, run_options, what_ran
+from oracles.command import RunOptions, figures, play, run_options, what_ran
 from planning import cli
 from planning.domain.compiler import compile_domain
 from planning.parallel import one_thread
 
-from .registry import AGENTS, agent_class, describe
+from .registry import AGENTS, agent_class, agent_options, build, describe
 from .workers import Job, play_over_workers
 
 
@@ -48,15 +48,16 @@ def main() -> None:
     one_thread()          # torch and BLAS on one thread, as in the workers: serial and parallel runs compute alike
     ids = cli.parse_ids(args.sequences)
     model = compile_domain(args.domain, args.layout)
-    agent = cls.from_args(args, model)
+    options, run = agent_options(cls, args), RunOptions.from_args(args)
+    agent = build(cls, options, model)
 
     def over_workers(out, log):             # each sequence a work item; the run below merges their rows
         if args.workers > 1 or args.ray:
-            return play_over_workers([Job(known.agent, args, model, agent, ids, out, args.force, log)],
-                                     args.workers, args.ray, progress=not args.no_progress)
+            job = Job(known.agent, options, args.domain, model, agent, ids, out, run.force, run.failure_protocol, log)
+            return play_over_workers([job], args.workers, args.ray, progress=run.progress)
         return None
 
-    r, out = play(model, agent, ids, args, before=over_workers)
+    r, out = play(model, agent, ids, run, before=over_workers)
     print(f"{r['agent']} {r['layout']}, sequences {cli.format_ids(ids)}: {figures(r)}", file=sys.stdout)
     print(what_ran(r), file=sys.stdout)
 

@@ -1,15 +1,18 @@
 """The agent registry: every agent the evaluation command can play, as a lazy (module, class) row.
 
-An agent class implements the protocol of `planning.world.agents` and three
+An agent class implements the protocol of `planning.world.agents`, whose
 hooks the command line uses: `options(parser)` declares its flags with their
-defaults (the only place they are written), `from_args(args, model)` builds it
-for the compiled layout, and
-its `run_name` names the default results file (every setting that changes
-results: planner, heuristic, K, checkpoint). A new agent is one module and one
-row here.
+defaults (the only place they are written), `from_args(options, model)` builds
+it for the compiled layout, and its `run_name` names the default results file
+(every setting that changes results: planner, heuristic, K, checkpoint). What
+`from_args` reads travels as the agent's options dataclass (`agent_options`),
+one field per declared flag. A new agent is one module and one row here.
 """
 from __future__ import annotations
 
+import argparse
+import dataclasses
+import functools
 import importlib
 
 from planning.errors import DomainError
@@ -36,3 +39,34 @@ def agent_class(name: str):
 def describe() -> str:
     """One line per registered agent: its name and the first line of its docstring."""
     return "\n".join(f"{name:16s} {(agent_class(name).__doc__ or '').strip().splitlines()[0]}" for name in AGENTS)
+
+
+@functools.cache
+def options_class(cls) -> type:
+    """The dataclass of an agent class's options: one field per flag its `options` declares, named by the
+    flag's dest, defaulting to the flag's default (a required flag has none: it must be given)."""
+    p = argparse.ArgumentParser(add_help=False)
+    cls.options(p)
+    fields = []
+    for a in p._actions:
+        kind = a.type if isinstance(a.type, type) else bool if isinstance(a.default, bool) else str
+        fields.append((a.dest, kind) if a.required else (a.dest, kind, dataclasses.field(default=a.default)))
+    return dataclasses.make_dataclass(f"{cls.__name__}Options", fields, frozen=True, kw_only=True)
+
+
+def agent_options(name_or_cls, args=None, **values):
+    """The agent's options: those of `args` (a parsed command line holding the agent's flags, among
+    others), else `values` over the flags' defaults; a name that is not one of its flags is a one-line error."""
+    cls = agent_class(name_or_cls) if isinstance(name_or_cls, str) else name_or_cls
+    kind = options_class(cls)
+    fields = {f.name: f for f in dataclasses.fields(kind)}
+    if args is not None:
+        values = {n: getattr(args, n) for n in fields}
+    unknown = sorted(set(values) - set(fields))
+    if unknown:
+        raise DomainError(f"--{unknown[0].replace('_', '-')}", f"not an option of {cls.__name__}")
+    missing = [n for n, f in fields.items() if n not in values and f.default is dataclasses.MISSING]
+    if missing:
+        raise DomainError(f"--{missing[0].replace('_', '-')}", f"{cls.__name__} needs it")
+    return kind(**values)
+

@@ -3,7 +3,7 @@ their figures over seeds.
 
 A run's results file is *used* only when it is finished (no OUT.partial.json
 beside it), was made by the agent and configuration the row's command line
-builds (`planning.world.runner.difference`: agent, layout, every config key,
+builds (`planning.world.results.difference`: agent, layout, every config key,
 the checkpoint's step and evaluation among them) and, where it records one, with
 the checkpoint file that is there now (sha256). What would make a figure built on it
 doubtful is a *flag* (the report marks the figure): a commit outside this
@@ -116,7 +116,7 @@ def accounting(data: dict) -> tuple[str, str | None]:
 
 def run_protocol(run: Run) -> str:
     """The failure protocol a row's run plays under (its --failure-protocol, else the default)."""
-    from planning.world.runner import DEFAULT_PROTOCOL
+    from planning.world.results import DEFAULT_PROTOCOL
 
     opts = list(run.options)
     return opts[opts.index("--failure-protocol") + 1] if "--failure-protocol" in opts else DEFAULT_PROTOCOL
@@ -153,7 +153,7 @@ class Context:
 
 def load_run(run: Run, ctx: Context) -> Loaded:
     """Find, read and check one run's results file."""
-    from planning.world.runner import difference
+    from planning.world.results import difference
 
     if run.agent not in AGENTS:
         return Loaded(run, "agent not registered", note=f"the agent `{run.agent}` is not registered yet")

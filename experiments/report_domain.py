@@ -42,8 +42,8 @@ NOT_APPLICABLE = [
 
 
 def results_name(domain: str, run_name: str, layout: str) -> str:
-    """`planning.world.runner.default_out`'s name for a run of this domain."""
-    from planning.world.runner import results_file
+    """`planning.world.results.default_out`'s name for a run of this domain."""
+    from planning.world.results import results_file
 
     return results_file(run_name, domain, layout)
 

@@ -80,7 +80,7 @@ def run_missing(rows, ctx: Context, ids=ALL, progress: bool = True, via: str = "
     written = []
     for run in tqdm(todo, desc="runs", unit="run", disable=not progress):
         model, agent = ctx.model(run.layout), ctx.agent(run)
-        if hasattr(agent, "set_log"):
+        if agent.keeps_log:
             agent.set_log(f"{run.out}.windows.jsonl")
         evaluate(model, agent, list(ids), run.out, progress=progress, reference=reference_path(model),
                  protocol=run_protocol(run))

@@ -32,7 +32,6 @@ local instance, or on the cluster at RAY_ADDRESS.
 """
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import itertools
 import json
@@ -48,9 +47,10 @@ from planning.atomic import write_json
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 from planning.parallel import describe, one_thread, provenance, run_items
-from planning.world.runner import default_out, evaluate
+from planning.world.results import default_out
+from planning.world.runner import evaluate
 
-from .registry import agent_class
+from .registry import agent_class, agent_options
 from .workers import Job, play_over_workers
 
 GRID = ("layout", "horizon", "seed")            # the axes every training sweep has
@@ -127,7 +127,7 @@ def deploy(model, run: Path, paths: dict) -> dict:
     from learning.export import export
 
     export(run, Path(paths["checkpoint"]), Path(paths["figures"]), force=paths.get("force", False))
-    agent = agent_class("rl-greedy").from_args(argparse.Namespace(checkpoint=paths["checkpoint"]), model)
+    agent = agent_class("rl-greedy").from_args(agent_options("rl-greedy", checkpoint=paths["checkpoint"]), model)
     r = evaluate(model, agent, paths["sequences"], paths["greedy"], progress=False, reference=reference_path(model))
     return {**paths, **{k: r[k] for k in ("cost_per_task", "success_rate", "actions_per_task", "improvement_vs_myopic")}}
 
@@ -222,10 +222,11 @@ def guided_sweep(args, layout: str, out: Path) -> tuple[dict, float]:
     depths = _values(args.depth_cap, int, "depth_cap") if args.depth_cap else [None]
     jobs = []
     for beta, budget, depth in itertools.product(betas, budgets, depths):
-        a = argparse.Namespace(domain=args.domain, layout=layout, checkpoint=args.checkpoint, beta=beta,
-                               budget=budget, depth_cap=depth, reference=args.reference, time_limit=args.time_limit)
-        agent = cls.from_args(a, model)
-        jobs.append(Job("rl-guided", a, model, agent, ids, default_out(agent, model, args.results), args.force))
+        options = agent_options(cls, checkpoint=args.checkpoint, beta=beta, budget=budget, depth_cap=depth,
+                                reference=args.reference, time_limit=args.time_limit)
+        agent = cls.from_args(options, model)
+        jobs.append(Job("rl-guided", options, args.domain, model, agent, ids, default_out(agent, model, args.results),
+                        args.force))
     t0 = time.perf_counter()
     played = play_over_workers(jobs, args.workers, args.ray, progress=not args.no_progress)
     wall = time.perf_counter() - t0

@@ -15,14 +15,14 @@ then writes OUT from it exactly as after a serial run (the per-task `seconds` an
 
 That holds because every agent's results depend only on the sequence: `start(model,
 sequence)` resets whatever an agent carries (the random policy reseeds from its seed and the
-sequence id). A worker builds each agent once (`from_args` with the command's own arguments)
-and keeps it for the next sequences it is handed.
+sequence id). A worker builds each agent once (`from_args` with the command's own agent options,
+`experiments.registry.agent_options`) and keeps it for the next sequences it is handed.
 """
 from __future__ import annotations
 
 import json
 import time
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from planning.atomic import write_json
@@ -30,10 +30,11 @@ from planning.domain.compiler import compile_domain
 from planning.domain.identity import identity
 from planning.errors import DomainError
 from planning.parallel import provenance, run_items
-from planning.world.runner import DEFAULT_PROTOCOL, difference, play_sequence
+from planning.world.results import DEFAULT_PROTOCOL, difference
+from planning.world.runner import play_sequence
 from planning.world.sequences import load
 
-from .registry import agent_class
+from .registry import agent_options, build
 
 
 @dataclass
@@ -41,18 +42,15 @@ class Job:
     """One agent's evaluation on some canonical sequences, written to `out`."""
 
     agent_name: str            # the registry name
-    args: object               # the parsed command line the agent is built from (argparse.Namespace)
+    options: object            # the agent's options it is built from (experiments.registry.agent_options)
+    domain: str                # the domain folder the layout was compiled from
     model: object              # the compiled layout
     agent: object              # the agent, built here: its name and config name the results
     ids: list
     out: str
     force: bool = False
+    protocol: str = DEFAULT_PROTOCOL   # the failure protocol the command plays under (--failure-protocol)
     log: str | None = None     # the agent's JSON-lines log (set_log), if it keeps one
-
-    @property
-    def protocol(self) -> str:
-        """The failure protocol the command plays under (`--failure-protocol`)."""
-        return getattr(self.args, "failure_protocol", DEFAULT_PROTOCOL)
 
 
 def _load(path: Path, what: str) -> dict | None:
@@ -115,11 +113,12 @@ _AGENTS: dict = {}
 def play_item(item: dict) -> dict:
     """Play one canonical sequence with a freshly built (or this worker's cached) agent; its rows."""
     model = compile_domain(item["domain"], item["layout"])
-    key = (item["agent"], repr(sorted(vars(item["args"]).items())), item["domain"], model.layout)
+    key = (item["agent"], repr(sorted(item["options"].items())), item["domain"], model.layout)
     agent = _AGENTS.get(key)
     if agent is None:
-        agent = _AGENTS[key] = agent_class(item["agent"]).from_args(item["args"], model)
-        if item.get("log") and hasattr(agent, "set_log"):
+        options = agent_options(item["agent"], **item["options"])
+        agent = _AGENTS[key] = build(item["agent"], options, model)
+        if item.get("log") and agent.keeps_log:
             agent.set_log(item["log"])
     seq = load(model, [item["sequence"]])[0]
     t0 = time.perf_counter()
@@ -147,7 +146,7 @@ def play_over_workers(jobs: list, workers: int = 1, use_ray: bool = False, progr
             if not job.force and _reusable_part(job, i) is not None:
                 reused += 1
                 continue
-            items.append({"agent": job.agent_name, "args": job.args, "domain": job.args.domain,
+            items.append({"agent": job.agent_name, "options": asdict(job.options), "domain": job.domain,
                           "layout": job.model.layout, "sequence": i, "log": job.log, "protocol": job.protocol})
             owners.append(j)
 

@@ -22,7 +22,7 @@ import statistics
 import time
 from pathlib import Path
 
-from oracles.command import figures, play, run_options, what_ran
+from oracles.command import RunOptions, figures, play, run_options, what_ran
 from oracles.myopic import MyopicOracle
 from planning import cli
 from planning.errors import DomainError
@@ -151,7 +151,7 @@ def main() -> None:
     ids = cli.parse_ids(args.sequences)
     model = compile_domain(args.domain, args.layout)
     agent = ClairvoyantOracle.from_args(args, model)
-    r, out = play(model, agent, ids, args)
+    r, out = play(model, agent, ids, RunOptions.from_args(args))
     windows = agent.summary(r.asked["per_task"])
     print(f"\nclairvoyant K={args.K}, {model.name} {model.layout}, sequences {cli.format_ids(ids)}")
     print(f"{figures(r)}, share optimal {windows['share_optimal']}, window seconds median "

@@ -9,8 +9,11 @@ it played them now or kept them from a finished file.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from planning import cli
-from planning.world.runner import DEFAULT_PROTOCOL, FAILURE_PROTOCOLS, default_out, evaluate
+from planning.world.results import DEFAULT_PROTOCOL, FAILURE_PROTOCOLS, default_out
+from planning.world.runner import evaluate
 
 REFERENCE = "results/myopic-oracle-{layout}.json"
 """The myopic oracle's results file (Fast Downward): every improvement figure is measured against it."""
@@ -22,8 +25,29 @@ def reference_path(model) -> str:
     return path if model.name == "restaurant" else path.replace("results/", f"results/{model.name}-", 1)
 
 
+@dataclass(frozen=True)
+class RunOptions:
+    """How an evaluation plays and writes its results: the flags `run_options` declares, and --out."""
+
+    out: str | None = None
+    """the results file (None: the agent's default, `planning.world.results.default_out`)"""
+    force: bool = False
+    """play every sequence asked for again, replacing a finished results file made otherwise"""
+    strict: bool = False
+    """a planner timeout or crash is an error once the results are written"""
+    failure_protocol: str = DEFAULT_PROTOCOL
+    """how a failed task is accounted for (`planning.world.results.FAILURE_PROTOCOLS`)"""
+    progress: bool = True
+    """progress bars"""
+
+    @classmethod
+    def from_args(cls, args) -> "RunOptions":
+        """The options of a parsed command line (`planning.cli.parser` with `run_options`)."""
+        return cls(args.out, args.force, args.strict, args.failure_protocol, not args.no_progress)
+
+
 def run_options(p) -> None:
-    """--force, --strict, --failure-protocol and --no-progress, the options of every evaluation."""
+    """--force, --strict, --failure-protocol and --no-progress, the options of every evaluation (`RunOptions`)."""
     p.add_argument("--force", action="store_true",
                    help="play every sequence asked for again, replacing a finished results file (even one made otherwise)")
     p.add_argument("--strict", action="store_true", help="exit non-zero if any planner timed out or crashed")
@@ -34,21 +58,21 @@ def run_options(p) -> None:
     p.add_argument("--no-progress", action="store_true", help="no progress bars (logs of background runs)")
 
 
-def play(model, agent, ids, args, before=None):
+def play(model, agent, ids, options: RunOptions, before=None):
     """(results, results path) of the agent on the sequences; `before(out, log)` runs first (e.g. workers)
     and returns the sequences it played, if any. The results are a `planning.world.runner.Evaluation`."""
-    protocol = getattr(args, "failure_protocol", DEFAULT_PROTOCOL)
-    out = args.out or default_out(agent, model, protocol=protocol)
+    protocol = options.failure_protocol
+    out = options.out or default_out(agent, model, protocol=protocol)
     log = None
-    if hasattr(agent, "set_log"):
+    if agent.keeps_log:
         log = f"{out}.windows.jsonl"
         cli.check_writable(log)
         agent.set_log(log)
     elsewhere = {}
     if before is not None:
         elsewhere = before(out, log) or {}
-    r = evaluate(model, agent, ids, out, reference=reference_path(model), force=args.force,
-                 strict=args.strict, progress=not args.no_progress,
+    r = evaluate(model, agent, ids, out, reference=reference_path(model), force=options.force,
+                 strict=options.strict, progress=options.progress,
                  protocol=protocol, played_by_workers=elsewhere.get("played", ()))
     r.seconds = round(r.seconds + elsewhere.get("wall", 0.0), 1)
     return r, out

@@ -23,7 +23,7 @@ from planning.world.agents import PlanFunction, Planner, Reply
 from planning.world.runner import play_task
 from planning.world.task_stream import PersistentWorld, TaskStream
 
-from oracles.command import figures, play, run_options, what_ran
+from oracles.command import RunOptions, figures, play, run_options, what_ran
 
 PLANNERS = ("fast-downward", "internal")
 
@@ -145,7 +145,7 @@ def main() -> None:
     args = p.parse_args()
     ids = cli.parse_ids(args.sequences)
     model = compile_domain(args.domain, args.layout)
-    r, out = play(model, MyopicOracle.from_args(args, model), ids, args)
+    r, out = play(model, MyopicOracle.from_args(args, model), ids, RunOptions.from_args(args))
     print(f"\nmyopic oracle ({args.planner}), {model.name} {model.layout}, sequences {cli.format_ids(ids)}: "
           f"{r.asked['tasks']} tasks; {figures(r)}")
     print(type_table(r.asked))

@@ -17,7 +17,12 @@ of `Reply.info` is copied into the task's results row; the runner itself reads
 "crash"), which says why a plan is missing.
 
 `name` and `config` identify a run: results files record both, and a finished
-results file is extended only by a run with the same name and config.
+results file is extended only by a run with the same name and config. The
+class hooks (`options`, `from_args`) and `run_name` are what the evaluation
+command and the agent registry (`experiments.registry`) need to build an agent
+from its command line and name its results file; `summary` and `set_log` are
+what the runner and the command call on every agent, with defaults that add
+nothing. A class's docstring's first line describes it in `--list-agents`.
 """
 from __future__ import annotations
 
@@ -33,13 +38,47 @@ class Reply:
 
 
 class Agent:
-    """What planners and policies share: a name, a configuration, a start hook."""
+    """What planners and policies share: how they are built, named and configured, and their hooks."""
 
     name = "agent"
+    """The agent's name in results files (`agent`); with `config`, what a saved run is compared on."""
     config: dict = {}
+    """Every setting that changes the agent's results, JSON-serialisable (the results file's `config`);
+    complete once the agent is built, so that a saved run can be compared before anything is played."""
+    run_name = "agent"
+    """The default results file's name before the layout (`planning.world.results.default_out`): the
+    name and every setting that changes results (planner, heuristic, K, checkpoint)."""
+
+    @classmethod
+    def options(cls, p) -> None:
+        """Declare the agent's command-line flags, with their defaults, on the argparse parser (or group)
+        `p`: the only place they are written. Each flag's dest is an attribute `from_args` reads."""
+
+    @classmethod
+    def from_args(cls, args, model) -> "Agent":
+        """The agent built for the compiled layout `model` from `args`: any object with one attribute per
+        flag `options` declares (a parsed command line, or `experiments.registry.agent_options`). A bad
+        value is a one-line `DomainError`, raised here, before anything is played."""
+        raise NotImplementedError
 
     def start(self, model, sequence) -> None:
-        """Called before each sequence (the world has just been reset)."""
+        """Called before each sequence (the world has just been reset); resets whatever the agent carries
+        from one sequence to the next, so that a sequence's results do not depend on those played
+        before it (`experiments.workers` plays them apart)."""
+
+    def summary(self, rows: list) -> dict:
+        """Keys of the agent's own the results file adds (e.g. the clairvoyant's K and share of optimal
+        windows), from the per-task rows of every sequence in the file; none by default."""
+        return {}
+
+    def set_log(self, path) -> None:
+        """Append a JSON-lines record of the agent's own (e.g. the clairvoyant's windows) to `path`, which
+        the command puts beside the results file (OUT.windows.jsonl); called only when `keeps_log`."""
+
+    @property
+    def keeps_log(self) -> bool:
+        """Whether the agent writes a log (its class overrides `set_log`)."""
+        return type(self).set_log is not Agent.set_log
 
 
 class Planner(Agent):

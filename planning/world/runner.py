@@ -22,16 +22,17 @@ An improvement is computed only against a reference that played the same
 tasks, in the same order, from the same world reset, on the same domain
 content (checked row by row); otherwise it is null and `improvement_note` says why.
 
-Finished sequences are kept in OUT.partial.json, so an interrupted run resumes
-where it stopped, and a finished OUT is extended, never replaced, by a run of
-the same agent, configuration, failure protocol and domain content; a run that
-differs in any of them stops with an error naming the difference unless
-`force` is given, which replays every sequence asked for. One process writes
-an OUT at a time (`planning.atomic.OutputLock`).
+`evaluate` plays the sequences a results file does not hold yet: what OUT and
+OUT.partial.json already hold, checked against this run's agent, configuration,
+failure protocol and domain content, and where each finished sequence goes, are
+`planning.world.results`'s (an interrupted run resumes where it stopped, a
+finished OUT is extended, never replaced, by a run of the same settings; one
+that differs stops with an error naming the difference unless `force` is given,
+which replays every sequence asked for). One process writes an OUT at a time
+(`planning.atomic.OutputLock`).
 """
 from __future__ import annotations
 
-import json
 import sys
 import time
 from contextlib import nullcontext
@@ -39,13 +40,15 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from planning.atomic import OutputLock, write_json
+from planning.atomic import OutputLock
 from planning.domain.batched import BatchedModel
 from planning.domain.identity import identity, mismatch
 from planning.errors import DomainError
+from planning.parallel import results_provenance
 from planning.search.optimal import optimal_plan
+from planning.world import results, sequences
 from planning.world.agents import Planner
-from planning.world.sequences import load
+from planning.world.results import COMPLETED_BY, DEFAULT_PROTOCOL, FAILURE_PROTOCOLS, check_protocol
 from planning.world.task_stream import PersistentWorld
 
 
@@ -65,26 +68,6 @@ def play_task(world: PersistentWorld, agent, task, upcoming=()) -> dict:
     else:
         info["executed"] = world.execute(reply.plan)
     return info
-
-
-FAILURE_PROTOCOLS = {
-    "fallback": ("a failed task is completed by the fallback: the optimal completion from where it was "
-                 "left (planning.search.optimal) is executed, its consumption applied, and the task charged "
-                 "its executed cost plus the completion's"),
-    "abandon": ("the thesis's protocol: a failed task is abandoned, the world persists as it was left, and "
-                "the task is charged its executed cost only; not comparable with the myopic oracle unless "
-                "every task succeeded"),
-}
-"""The failure protocols (`--failure-protocol`), as a results file describes them (`failure_accounting`)."""
-
-DEFAULT_PROTOCOL = "fallback"
-COMPLETED_BY = {"fallback": "fallback", "abandon": "nothing"}
-"""What a failed task's row says completed it (`completed_by`), per protocol."""
-
-def check_protocol(protocol: str) -> None:
-    """A one-line error for a failure protocol that is not one of FAILURE_PROTOCOLS."""
-    if protocol not in FAILURE_PROTOCOLS:
-        raise DomainError("--failure-protocol", f"unknown protocol '{protocol}' (known: {', '.join(FAILURE_PROTOCOLS)})")
 
 
 PLANNER_FAULTS = ("out-of-time", "out-of-memory", "crashed", "crash")
@@ -157,62 +140,6 @@ def play_sequence(model, agent, seq, bar=None, protocol: str = DEFAULT_PROTOCOL)
         if bar is not None:
             bar.update(1)
     return rows
-
-
-def results_provenance(config: dict, played=(), kept: dict | None = None) -> dict:
-    """A results file's `provenance` (SPEC.md): commit, command and date (`planning.parallel.provenance`),
-    whether tracked code differed from the commit, the UTC date, the machine, the sha256 of the
-    checkpoint the configuration names, the sequences this command played (here or on its workers)
-    and, per sequence of the file, the run that played it (`sequences`: this one's commit and date
-    for the sequences played now, the earlier run's for those kept; `kept` gives those)."""
-    import os
-    import platform
-    import subprocess
-    from datetime import datetime, timezone
-
-    from planning.atomic import sha256
-    from planning.parallel import provenance
-
-    out = provenance()
-    if getattr(sys, "orig_argv", None) and "-m" in sys.orig_argv:
-        out["command"] = " ".join(["python", *sys.orig_argv[sys.orig_argv.index("-m"):]])
-    try:
-        changed = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", "*.py", "*.pddl",
-                                  "*.toml", ":(exclude)tests"], cwd=Path(__file__).resolve().parents[2], capture_output=True,
-                                 text=True, timeout=10).stdout.split("\n")
-        out["uncommitted_code"] = sorted(line[3:] for line in changed if line.strip())
-    except (OSError, subprocess.SubprocessError):
-        out["uncommitted_code"] = None
-    out["date_utc"] = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
-    out["machine"] = {"host": platform.node(), "platform": platform.platform(), "cpus": os.cpu_count(),
-                      "python": platform.python_version()}
-    checkpoint = next((v for k in ("checkpoint", "model") if isinstance(v := (config or {}).get(k), str)), None)
-    if checkpoint and Path(checkpoint).is_file():
-        out["checkpoint"] = checkpoint
-        out["checkpoint_sha256"] = sha256(checkpoint)
-    out["played_in_this_process"] = sorted(played)
-    if kept is not None:
-        this = {"commit": out["commit"], "date_utc": out["date_utc"]}
-        out["sequences"] = {str(i): dict(kept.get(i) or this) for i in sorted(set(kept) | set(played))}
-        for i in played:
-            out["sequences"][str(i)] = this
-    return out
-
-
-def sequence_provenance(saved: dict) -> dict:
-    """{sequence id: {commit, date_utc}} of a saved results file: its per-sequence record where it keeps
-    one, else the file's own commit and date for each of its sequences."""
-    prov = saved.get("provenance") if isinstance(saved.get("provenance"), dict) else {}
-    per = prov.get("sequences") if isinstance(prov.get("sequences"), dict) else {}
-    whole = {"commit": prov.get("commit"), "date_utc": prov.get("date_utc") or prov.get("written")}
-    ids = saved.get("sequences") if isinstance(saved.get("sequences"), list) else list((saved.get("done") or {}))
-    out = {}
-    for i in ids:
-        try:
-            out[int(i)] = per.get(str(i)) or whole
-        except (TypeError, ValueError):
-            continue
-    return out
 
 
 def planner_faults(rows) -> list[dict]:
@@ -297,7 +224,7 @@ def improvement(cost: float, model, ids, reference=None, rows=None, resets=None)
     path = Path(reference) if reference else None
     if path is None or not path.is_file():
         return None, f"no myopic oracle results file {path}" if path else "no reference given"
-    ref = _read(path, "myopic oracle results")
+    ref = results.read(path, "myopic oracle results")
     diff = mismatch(ref, model)
     if diff is not None:
         return None, f"the reference {path} was made from {diff}"
@@ -326,134 +253,6 @@ def improvement(cost: float, model, ids, reference=None, rows=None, resets=None)
     except (KeyError, TypeError, ZeroDivisionError) as e:
         raise DomainError(path, f"corrupt myopic oracle results ({type(e).__name__}: {e})") from None
     return round((c_ref - cost) / c_ref, 4), None
-
-
-def default_out(agent, model, results_dir="results", protocol: str = DEFAULT_PROTOCOL) -> str:
-    """results/<run name>-<layout>.json (the layout once, where the run name already holds it); for any
-    domain but the restaurant (whose committed names stay) the domain's name comes first, and a run under
-    a failure protocol other than the default ends in `-<protocol>`."""
-    return results_file(agent.run_name, model.name, model.layout, results_dir, protocol)
-
-
-def results_file(run_name: str, domain: str, layout: str, results_dir="results",
-                 protocol: str = DEFAULT_PROTOCOL) -> str:
-    """`default_out` from the names alone (for tools that name a run's file without building its agent)."""
-    base = run_name if layout in run_name else f"{run_name}-{layout}"
-    if domain != "restaurant":
-        base = f"{domain}-{base}"
-    if protocol != DEFAULT_PROTOCOL:
-        base = f"{base}-{protocol}"
-    return f"{results_dir}/{base}.json"
-
-
-def _read(path: Path, what: str) -> dict:
-    try:
-        saved = json.loads(path.read_text())
-    except json.JSONDecodeError as e:
-        raise DomainError(path, f"corrupt {what} ({e}); delete it to start over") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise DomainError(path, f"cannot read the {what} ({getattr(e, 'strerror', None) or type(e).__name__})") from None
-    if not isinstance(saved, dict):
-        raise DomainError(path, f"corrupt {what} (not a JSON object); delete it to start over")
-    return saved
-
-
-ROW_KEYS = {"sequence": int, "index": int, "task": str, "cost": (int, float), "actions": int, "success": bool}
-
-
-def _row_problem(row: dict, model) -> str | None:
-    """Why a saved row cannot be what the runner wrote (its figures do not add up), or None."""
-    if row["cost"] < 0 or row["actions"] < 0:
-        return f"a negative cost or action count ({row['cost']}, {row['actions']})"
-    plan = row.get("plan")
-    if isinstance(plan, list):
-        try:
-            spent = sum(model.action_cost[model.action_index[a]] for a in plan)
-        except (KeyError, TypeError):
-            return "its plan names an action the layout does not have"
-        executed = row.get("executed_cost", row["cost"])
-        if len(plan) != row["actions"] or spent != executed:
-            return f"its plan costs {spent} in {len(plan)} actions, the row says {executed} in {row['actions']}"
-    if not row["success"]:
-        executed, rest, charged = row.get("executed_cost"), row.get("completion_cost"), row.get("charged_cost")
-        if row.get("completed_by") == "fallback" and (not isinstance(executed, (int, float)) or
-                                                      not isinstance(rest, (int, float)) or
-                                                      charged != executed + rest or row["cost"] != charged):
-            return "its charged cost is not its executed cost plus its completion"
-    elif row.get("auto") and (row["cost"] != 0 or row["actions"] != 0):
-        return "a task that already held, with a cost"
-    return None
-
-
-def _kept_rows(path: Path, what: str, seq, rows, model=None) -> list:
-    """A saved sequence's rows, checked against the sequence itself: one well-formed row per task,
-    in order, naming its task, with figures that add up. A sequence cut short or edited is a one-line error."""
-    where = f"{what}, sequence {seq.id}"
-    if not isinstance(rows, list):
-        raise DomainError(path, f"corrupt {where} (its rows are not a list); delete it to start over")
-    if len(rows) != len(seq.tasks):
-        raise DomainError(path, f"corrupt {where}: {len(rows)} rows for its {len(seq.tasks)} tasks "
-                                "(cut short or edited by hand); delete it to start over")
-    for k, (row, task) in enumerate(zip(rows, seq.tasks)):
-        bad = not isinstance(row, dict) or any(not isinstance(row.get(key), kind) or
-                                               (kind is int and isinstance(row.get(key), bool))
-                                               for key, kind in ROW_KEYS.items())
-        if bad or row["sequence"] != seq.id or row["index"] != k or row["task"] != task.name:
-            raise DomainError(path, f"corrupt {where}: row {k} is not task {k} ({task.name}) of the "
-                                    "sequence; delete it to start over")
-        problem = _row_problem(row, model) if model is not None else None
-        if problem:
-            raise DomainError(path, f"corrupt {where}: row {k} ({task.name}): {problem}; delete it to start over")
-    return rows
-
-
-def _under(rows, protocol: str) -> bool:
-    """True if every failed task of the rows was accounted for under `protocol` (rows of another
-    protocol, or written before failed tasks were completed, are played again rather than mixed in)."""
-    return all(r["success"] or r.get("completed_by") == COMPLETED_BY[protocol] for r in rows)
-
-
-def _saved_sequences(path: Path, what: str, table) -> dict:
-    """{id: rows} of a saved run's finished sequences (ids checked as numbers)."""
-    if not isinstance(table, dict):
-        raise DomainError(path, f"corrupt {what} (its finished sequences are not a table); delete it to start over")
-    try:
-        return {int(k): v for k, v in table.items()}
-    except (TypeError, ValueError):
-        raise DomainError(path, f"corrupt {what} (a sequence id is not a number); delete it to start over") from None
-
-
-def saved_protocol(saved: dict) -> str | None:
-    """The failure protocol a saved run played under: its `failure_protocol`; for a file written before
-    protocols were recorded, 'charged' (failed tasks charged, the world left as it was) if a task
-    failed, else None (with no failure, every protocol gives the same rows)."""
-    if saved.get("failure_protocol"):
-        return saved["failure_protocol"]
-    rows = saved.get("per_task")
-    if rows is None and isinstance(saved.get("done"), dict):
-        rows = [r for rs in saved["done"].values() if isinstance(rs, list) for r in rs]
-    failed = any(isinstance(r, dict) and r.get("success") is False for r in rows or [])
-    return "charged (the world left where the failed task stopped)" if failed else None
-
-
-def difference(saved: dict, agent, model, protocol: str = DEFAULT_PROTOCOL) -> str | None:
-    """The first setting in which a saved run differs from this one ('agent', the domain, 'layout', the
-    failure protocol or a config key), or None."""
-    if saved.get("agent") != agent.name:
-        return f"agent {saved.get('agent')!r}, not {agent.name!r}"
-    diff = mismatch(saved, model)
-    if diff is not None:
-        return diff
-    if saved.get("layout") != model.layout:
-        return f"layout {saved.get('layout')!r}, not {model.layout!r}"
-    theirs = saved_protocol(saved)
-    if theirs not in (None, protocol):
-        return f"failure protocol {theirs!r}, not {protocol!r}"
-    old, new = saved.get("config") or {}, agent.config
-    for key in sorted(set(old) | set(new)):
-        if old.get(key) != new.get(key):
-            return f"{key} {old.get(key)!r}, not {new.get(key)!r}"
-    return None
 
 
 class Evaluation(dict):
@@ -506,60 +305,14 @@ def evaluate(model, agent, ids, out=None, progress=True, reference=None, force=F
 
 def _evaluate(model, agent, ids, out, partial, progress, reference, force, strict, protocol,
               played_by_workers) -> Evaluation:
-    saved_runs: list = []
-    wall = 0.0
-    finished = None                        # OUT as it is, when it is a finished run of this configuration
-    kept_prov: dict = {}
-    if out and Path(out).is_file() and not force:
-        saved = _read(Path(out), "results")
-        diff = difference(saved, agent, model, protocol)
-        if diff:
-            raise DomainError(out, f"a finished run with {diff}; pass --force to play it again, "
-                                   "or --out another file")
-        rows = saved.get("per_task")
-        if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
-            raise DomainError(out, "corrupt results (per_task is not a list of rows); delete it to start over")
-        sequences = saved.get("sequences", [])
-        if not isinstance(sequences, list):
-            raise DomainError(out, "corrupt results (sequences is not a list); delete it to start over")
-        table = {i: [r for r in rows if r.get("sequence") == i] for i in sequences}
-        saved_runs.append((Path(out), "results", _saved_sequences(Path(out), "results", table)))
-        kept_prov.update(sequence_provenance(saved))
-        wall = saved.get("wall_seconds", 0.0)
-        finished = saved
-    if partial and partial.is_file() and not (force and not played_by_workers):
-        saved = _read(partial, "partial results")
-        if difference(saved, agent, model, protocol) is None:
-            saved_runs.append((partial, "partial results",          # newer than OUT
-                               _saved_sequences(partial, "partial results", saved.get("done"))))
-            kept_prov.update({int(k): v for k, v in (saved.get("provenance_of") or {}).items()
-                              if str(k).lstrip("-").isdigit()})
-            wall += saved.get("wall_seconds", 0.0)
-    known = {}
-    for path, what, table in saved_runs:
-        for i in table:
-            if i not in known:
-                try:
-                    known[i] = load(model, [i])[0]
-                except DomainError:
-                    raise DomainError(path, f"corrupt {what}: sequence {i} is not a canonical sequence of "
-                                            f"{model.layout}; delete it to start over") from None
-    done: dict[int, list] = {}
-    for path, what, table in saved_runs:
-        for i, rows in table.items():
-            rows = _kept_rows(path, what, known[i], rows, model)
-            if _under(rows, protocol):
-                done[i] = rows
-            else:
-                done.pop(i, None)
-    if not isinstance(wall, (int, float)):
-        wall = 0.0
-    seqs = load(model, ids)
+    kept = results.resume(model, agent, out, partial, protocol, force, played_by_workers)
+    done, wall, kept_prov = kept.done, kept.wall, kept.provenance
+    seqs = sequences.load(model, ids)
     todo = [s for s in seqs if s.id not in done]
     played = sorted({s.id for s in todo} | ({int(i) for i in played_by_workers} & set(done)))
     seconds = 0.0
-    if finished is not None and not todo and len(saved_runs) == 1:
-        result, wrote = Evaluation(finished), False   # nothing to play or merge: OUT stays as written
+    if kept.finished is not None and not todo and kept.files == 1:
+        result, wrote = Evaluation(kept.finished), False   # nothing to play or merge: OUT stays as written
     else:
         bar = tqdm(total=sum(len(s.tasks) for s in todo), desc=f"{agent.name} {model.layout}",
                    unit="task", disable=not progress)
@@ -569,23 +322,18 @@ def _evaluate(model, agent, ids, out, partial, progress, reference, force, stric
             wall += time.perf_counter() - start
             seconds += time.perf_counter() - start
             if partial:
-                write_json(partial, {"agent": agent.name, **identity(model), "layout": model.layout,
-                                     "config": agent.config, "failure_protocol": protocol,
-                                     "wall_seconds": wall, "done": done,
-                                     "provenance_of": {str(i): v for i, v in kept_prov.items()}})
+                results.write_partial(partial, agent, model, protocol, wall, done, kept_prov)
         bar.close()
-        seqs = load(model, sorted(set(ids) | set(done)))
+        seqs = sequences.load(model, sorted(set(ids) | set(done)))
         rows = [r for s in seqs for r in done[s.id]]
         result = Evaluation(summary(agent.name, model, [s.id for s in seqs], rows, wall, agent.config,
                                     reference, protocol, {s.id: s.reset_seed for s in seqs}))
-        if hasattr(agent, "summary"):          # an agent's own keys (e.g. the clairvoyant's K)
-            result.update(agent.summary(rows))
+        result.update(agent.summary(rows))     # an agent's own keys (e.g. the clairvoyant's K)
         _self_reference(result, out, reference)
         result["provenance"] = results_provenance(agent.config, played, kept_prov)
         wrote = bool(out)
         if out:
-            write_json(out, dict(result))
-            partial.unlink(missing_ok=True)
+            results.write(out, partial, dict(result))
     result.asked = _asked(result, model, agent, ids, reference, protocol, out)
     result.played, result.wrote, result.out, result.seconds = played, wrote, out, round(seconds, 1)
     warning = fault_warning([r for r in result["per_task"] if r["sequence"] in set(ids)])

@@ -154,7 +154,7 @@ def _oscillations(model, state, n):
 def test_results_json_and_resume(two_room, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)   # no results/ here: improvement_vs_myopic is None
     out = tmp_path / "r.json"
-    import planning.world.runner as ev
+    import planning.world.sequences as ev
 
     real_load = ev.load
     monkeypatch.setattr(ev, "load", lambda model, ids: [Sequence(i, 100 + i, s.tasks[:6])
@@ -181,7 +181,7 @@ def test_results_json_and_resume(two_room, tmp_path, monkeypatch):
 def test_a_finished_run_is_extended_not_replayed(two_room, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     out = tmp_path / "r.json"
-    import planning.world.runner as ev
+    import planning.world.sequences as ev
 
     real_load = ev.load
     monkeypatch.setattr(ev, "load", lambda model, ids: [Sequence(i, 100 + i, s.tasks[:4])
@@ -239,7 +239,7 @@ class GivesUp(Planner):
 
 
 def short_sequences(monkeypatch, n):
-    import planning.world.runner as ev
+    import planning.world.sequences as ev
 
     real_load = ev.load
     monkeypatch.setattr(ev, "load", lambda model, ids: [Sequence(i, 100 + i, s.tasks[:n])

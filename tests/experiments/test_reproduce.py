@@ -87,10 +87,10 @@ def test_one_seed_per_side_is_a_reason_not_a_number():
 @pytest.fixture
 def tiny(two_room, tmp_path, monkeypatch):
     """Three-task canonical sequences, a context holding the compiled layout, and a `random` run."""
-    import planning.world.runner as runner
+    import planning.world.sequences as sequences
 
-    real_load = runner.load
-    monkeypatch.setattr(runner, "load", lambda model, ids: [Sequence(i, 100 + i, s.tasks[:3])
+    real_load = sequences.load
+    monkeypatch.setattr(sequences, "load", lambda model, ids: [Sequence(i, 100 + i, s.tasks[:3])
                                                             for i, s in zip(ids, real_load(model, ids))])
     monkeypatch.chdir(tmp_path)
     ctx = Context(str(ROOT / "domains" / "restaurant"))

@@ -13,7 +13,8 @@ from oracles.command import figures, what_ran
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 from planning.world.agents import Planner, Reply
-from planning.world.runner import default_out, evaluate
+from planning.world.results import default_out
+from planning.world.runner import evaluate
 from planning.world.sequences import Sequence
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -33,7 +34,7 @@ class Never(Planner):
 
 
 def short(monkeypatch, n):
-    import planning.world.runner as ev
+    import planning.world.sequences as ev
 
     real = ev.load
     monkeypatch.setattr(ev, "load", lambda model, ids: [Sequence(i, s.reset_seed, s.tasks[:n])

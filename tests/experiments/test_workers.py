@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from experiments.registry import agent_class
+from experiments.registry import agent_class, agent_options
 from experiments.workers import Job, play_over_workers
 from planning import cli
 from planning.atomic import write_json
@@ -52,7 +52,8 @@ def job(folder, out, argv, force=False) -> Job:
     agent_class(name).options(p)
     args = p.parse_args([*argv, "--domain", str(folder), "--layout", "grid", "--sequences", "0-1", "--out", str(out)])
     model = compile_domain(args.domain, args.layout)
-    return Job(name, args, model, agent_class(name).from_args(args, model), [0, 1], str(out), force)
+    options = agent_options(name, args)
+    return Job(name, options, args.domain, model, agent_class(name).from_args(options, model), [0, 1], str(out), force)
 
 
 def run(j: Job, workers=1, use_ray=False) -> dict:

@@ -127,6 +127,56 @@ def test_a_run_without_a_checkpoint_starts_over_through_a_sweep(tmp_path):
     assert all(r.get("tasks") != 9 for r in read_metrics(tmp_path / "run" / "metrics.jsonl")[0])
 
 
+class Killed(Exception):
+    """Stands for the kill of a trainer."""
+
+
+def train_killed(item: dict, at: int, monkeypatch) -> None:
+    """Run a sweep's item until step `at`, where the trainer dies (raising from its environment step)."""
+    from experiments.sweep import train_item
+    from learning.dqn import Trainer
+
+    step = Trainer.env_step
+
+    def dies(self, eps):
+        if self.step == at:
+            raise Killed
+        return step(self, eps)
+
+    with monkeypatch.context() as m:
+        m.setattr(Trainer, "env_step", dies)
+        with pytest.raises(Killed):
+            train_item(item)
+
+
+def metrics_rows(run: Path) -> list[dict]:
+    """The metrics rows less their timings (steps and updates per second differ run to run)."""
+    return [{k: v for k, v in r.items() if not k.endswith("_per_s")} for r in read_metrics(run / "metrics.jsonl")[0]]
+
+
+@pytest.mark.parametrize("every, at", [(10**9, 250), (200, 350)], ids=["before-last.pt", "after-last.pt"])
+def test_a_sweep_run_killed_and_rerun_logs_each_step_once_as_the_uninterrupted_run(tmp_path, monkeypatch, every, at):
+    """Killed at step 250 before any last.pt (rows 100 and 200 written), or at 350 after the last.pt of step 200
+    (row 300 written): rerun as the sweep does, its metrics file holds each step once, in order, with the rows of
+    the run that was never interrupted (not 100, 200, 100, 200, 300, 400)."""
+    from experiments.sweep import train_item
+
+    # the target network synced at the checkpoints: the target values a trainer caches (learning.qnet) are then
+    # recomputed after a resume in the batches the uninterrupted run computes them in, so the rows agree exactly
+    settings = {**SMALL, "steps": 400, "checkpoint_every": every, "target_every": 100}
+    item = lambda out: {"domain": MINIMAL, "layout": "grid", "horizon": "myopic", "seed": 0, "settings": settings,
+                        "out": str(tmp_path / out)}
+    whole = train_item(item("whole"))
+    train_killed(item("killed"), at, monkeypatch)
+    assert logged_steps(tmp_path / "killed") == [100, 200, 300][: at // 100]
+    assert (tmp_path / "killed" / "last.pt").is_file() == (every == 200)
+    resumed = train_item(item("killed"))
+    steps = logged_steps(tmp_path / "killed")
+    assert steps == [100, 200, 300, 400] and all(a < b for a, b in zip(steps, steps[1:]))
+    assert metrics_rows(tmp_path / "killed") == metrics_rows(tmp_path / "whole")
+    assert (resumed["steps"], resumed["tasks"], resumed["last"]) == (whole["steps"], whole["tasks"], whole["last"])
+
+
 # ---- 3. one trainer per run folder ------------------------------------------------------------------
 def test_a_second_trainer_of_a_run_folder_stops_at_once(tmp_path, capsys):
     folder = tmp_path / "run"
