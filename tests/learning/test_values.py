@@ -103,6 +103,7 @@ def test_a_short_form_and_its_value_name_make_the_same_run(minimal, checkpoint, 
 
 
 TILT = '''
+import numpy as np
 
 
 class TiltValue:
