@@ -70,3 +70,32 @@ def agent_options(name_or_cls, args=None, **values):
         raise DomainError(f"--{missing[0].replace('_', '-')}", f"{cls.__name__} needs it")
     return kind(**values)
 
+
+def build(name_or_cls, options, model):
+    """The agent built for the compiled layout from its options (its `from_args`). An agent that plays a
+    reference planner (a `reference_agent` option, `learning.guided`) is handed that planner, built here:
+    learning/ may not import this registry, which knows every agent."""
+    cls = agent_class(name_or_cls) if isinstance(name_or_cls, str) else name_or_cls
+    spec = getattr(options, "reference_agent", None)
+    if spec is None:
+        return cls.from_args(options, model)
+    reference = reference_planner(spec, model, cls.reference_defaults(options))
+    return cls.from_args(options, model, reference_planner=reference)
+
+
+def reference_planner(spec: str, model, defaults: dict):
+    """The registered planner `spec` names, 'NAME [OPTIONS]', built from its own options over `defaults`."""
+    import shlex
+
+    from planning.world.agents import Planner
+
+    words = shlex.split(spec)
+    if not words or words[0] not in AGENTS:
+        raise DomainError("--reference-agent", f"'{spec}' names no registered agent (known: {', '.join(AGENTS)})")
+    cls = agent_class(words[0])
+    if not issubclass(cls, Planner):
+        raise DomainError("--reference-agent", f"{words[0]} is not a planner: it acts step by step")
+    p = argparse.ArgumentParser(prog=f"--reference-agent {words[0]}", add_help=False)
+    cls.options(p)
+    p.set_defaults(**{k: v for k, v in defaults.items() if k in {a.dest for a in p._actions}})
+    return build(cls, agent_options(cls, p.parse_args(words[1:])), model)
