@@ -26,7 +26,7 @@ from oracles.command import RunOptions, figures, play, run_options, what_ran
 from oracles.myopic import MyopicOracle
 from planning import cli
 from planning.errors import DomainError
-from planning.heuristics import names
+from planning.heuristics import describe, names
 from planning.domain.batched import BatchedModel
 from planning.domain.compiler import compile_domain
 from planning.search.joint import JointSearch
@@ -35,11 +35,6 @@ from planning.world.agents import Planner, Reply
 from planning.world.runner import play_task
 from planning.world.task_stream import PersistentWorld
 
-
-# The window search as results files record it, per heuristic of the registry's "window" rows.
-WINDOW_SEARCH = {"pdb": "max(pattern databases of the current stage, the window's pattern databases over the stages left)",
-                 "layered": "lmcut of the stage-layered relaxation",
-                 "lmcut": "lmcut of the current stage", "hmax": "hmax of the current stage"}
 
 
 class ClairvoyantOracle(Planner):
@@ -63,14 +58,14 @@ class ClairvoyantOracle(Planner):
             raise DomainError("--K", f"must be at least 1, not {K}")
         if not time_limit > 0:
             raise DomainError("--time-limit", f"must be positive, not {time_limit}")
-        if heuristic not in WINDOW_SEARCH:
-            raise DomainError("--heuristic", f"'{heuristic}' is not one of {', '.join(WINDOW_SEARCH)}")
+        if heuristic not in names("window"):
+            raise DomainError("--heuristic", f"'{heuristic}' is not one of {', '.join(names('window'))}")
         self.K, self.time_limit, self.heuristic = K, time_limit, heuristic
         self.log = Path(log) if log else None
         self.name = f"clairvoyant-{K}"
         self.run_name = self.name if heuristic == "pdb" else f"{self.name}-{heuristic}"
         self.config = {"K": K, "time_limit": time_limit,
-                       "search": f"astar({WINDOW_SEARCH[heuristic]}) by f-levels, pathmax, reopening",
+                       "search": f"astar({describe(heuristic, 'window')}) by f-levels, pathmax, reopening",
                        "fallback": "the myopic chain (the current task's optimal plan executed)"}
         self._model = None
         self._sequence = None

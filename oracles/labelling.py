@@ -1,10 +1,10 @@
 """The labelling oracle: C_AP(s) = sum_tau P(tau) C*_tau(s) (thesis Eq. 3.11), exactly.
 
 Every task of the layout's distribution is solved from s by ONE multi-goal
-search: A* by f-levels on the batched model whose goal is "some task not yet
-settled". Each task's optimal cost is settled at the first level that pops one
-of its goal states (the smallest g among them), and the search stops when every
-task is settled.
+search: A* by f-levels (planning.search.cost_levels) on the batched model whose
+goal is "some task not yet settled". Each task's optimal cost is settled at the
+first level that closes one of its goal states (the smallest g among them), and
+the search stops when every task is settled.
 
 Why this is exact. The heuristic at any moment is an admissible estimate of
 the cost to the nearest goal of a still-unsettled task, e.g. the minimum over
@@ -17,8 +17,8 @@ an optimal tau-plan open at its optimal g with f <= C*_tau. Levels are popped in
 increasing f and a goal state of tau has g <= f, so the first level holding a
 goal of tau holds one at g = C*_tau and none cheaper. Entries queued under an
 older, larger task set carry a stale (smaller) f; they are re-scored when popped
-and queued again if their f rose, which keeps the search from expanding states
-only a settled task needed.
+and queued again if their f rose (CostLevels.rescore), which keeps the search
+from expanding states only a settled task needed.
 
     python -m oracles.labelling --layout three-room [--state FILE] [--out FILE] [--force]
 
@@ -32,11 +32,10 @@ the state's atoms; it never replaces a labels file of another state, layout or d
 """
 from __future__ import annotations
 
-import heapq
 import json
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -46,10 +45,8 @@ from planning.atomic import write_json
 from planning.domain.batched import BatchedModel
 from planning.domain.grounding import atom_text
 from planning.errors import DomainError
-from planning.heuristics.hmax import INF_64 as INF
-from planning.heuristics import choose, names
-from planning.heuristics.hmax import HMax, goal_literals
-from planning.search.state_table import ClosedStates, cheapest_unique
+from planning.heuristics import HEURISTICS, build, choose, names
+from planning.search.cost_levels import CostLevels
 
 CHUNK = 1 << 16          # rows per goal test: keeps the (rows, conjunctions) arrays small
 
@@ -66,7 +63,6 @@ class TaskGoals:
         self.pos = bm.pack([o.pos for _, o in ops])
         self.neg = bm.pack([o.neg for _, o in ops])
         self.starts = np.searchsorted(self.owner, np.arange(len(self.tasks)))
-        self.literals = [goal_literals(bm.model, t) for t in self.tasks]
 
     def __len__(self) -> int:
         return len(self.tasks)
@@ -82,64 +78,8 @@ class TaskGoals:
         return out
 
 
-# ---- heuristics: admissible for "the nearest goal of a still-unsettled task" -------------
-class Blind:
-    """h = 0: the multi-goal search is Dijkstra."""
-
-    name = "blind"
-
-    def __call__(self, batch: np.ndarray, unsettled: np.ndarray) -> np.ndarray:
-        return np.zeros(len(batch), dtype=np.int64)
-
-
-class MinHMax:
-    """min over the unsettled tasks of h_max, every task's from one relaxed-cost table per batch."""
-
-    name = "hmax"
-
-    def __init__(self, goals: TaskGoals, hmax: HMax | None = None):
-        bm = goals.bm
-        self.hmax = hmax or HMax(bm.model, bm)
-        self.union = [c for lits in goals.literals for c in lits]
-        self.owner = goals.owner
-        always = self.hmax.n_atoms                  # literal_costs' last column: always 0
-        width = max((len(c) for c in self.union), default=1) or 1
-        self.conj = np.full((len(self.union), width), always, dtype=np.int64)
-        for k, c in enumerate(self.union):
-            self.conj[k, : len(c)] = c
-
-    def per_task(self, batch: np.ndarray) -> np.ndarray:
-        """(N, T) h_max of every task (INF: dead end)."""
-        cost = self.hmax.literal_costs(batch, self.union)                # (N, 2 atoms + 1)
-        per_conj = cost[:, self.conj].max(-1).astype(np.int64)          # (N, K)
-        starts = np.flatnonzero(np.r_[True, self.owner[1:] != self.owner[:-1]])
-        h = np.minimum.reduceat(per_conj, starts, axis=1)
-        h[h >= np.iinfo(np.int32).max // 4] = INF
-        return h
-
-    def __call__(self, batch: np.ndarray, unsettled: np.ndarray) -> np.ndarray:
-        if not len(batch):
-            return np.zeros(0, dtype=np.int64)
-        return self.per_task(batch)[:, unsettled].min(1)
-
-
-class UnionGoal:
-    """Any heuristic with HMax's contract, h(batch, dnf) (e.g. LM-cut), on the unsettled tasks' goals joined by 'or'."""
-
-    def __init__(self, goals: TaskGoals, heuristic, name: str = "union", max_tasks: int | None = None):
-        """`max_tasks`: answer 0 (trivially admissible) while more tasks than this are unsettled,
-        where the cheap heuristic already orders the search well and the costly one would not pay."""
-        self.literals, self.h, self.name, self.max_tasks = goals.literals, heuristic, name, max_tasks
-
-    def __call__(self, batch: np.ndarray, unsettled: np.ndarray) -> np.ndarray:
-        if not len(batch) or (self.max_tasks is not None and unsettled.sum() > self.max_tasks):
-            return np.zeros(len(batch), dtype=np.int64)
-        dnf = [c for t in np.flatnonzero(unsettled) for c in self.literals[t]]
-        return self.h(batch, dnf)
-
-
 class CachedHeuristic:
-    """Memoizes a heuristic h(batch, unsettled) by (unsettled task set, state), exactly (the state's words).
+    """Memoizes a multi-goal heuristic h(batch, goals) by (the goals' tasks, state), exactly (the state's words).
 
     A state is generated again and again, by other parents and by the searches of
     neighbouring dataset states (consecutive states of a rollout share most of
@@ -149,16 +89,16 @@ class CachedHeuristic:
     """
 
     def __init__(self, inner, max_entries: int = 1_500_000):
-        self.inner, self.name, self.max_entries = inner, getattr(inner, "name", "cached"), max_entries
-        self.tables: dict[bytes, dict] = {}          # unsettled mask -> {state bytes: h}; insertion order = age
+        self.inner, self.max_entries = inner, max_entries
+        self.tables: dict[tuple, dict] = {}          # task indices -> {state bytes: h}; insertion order = age
         self.size = 0
         self.calls = self.computed = 0
 
-    def __call__(self, batch: np.ndarray, unsettled: np.ndarray) -> np.ndarray:
+    def __call__(self, batch: np.ndarray, goals: list) -> np.ndarray:
         n = len(batch)
         if not n:
             return np.zeros(0, dtype=np.int64)
-        key = unsettled.tobytes()
+        key = tuple(t.index for t in goals)
         table = self.tables.pop(key, None)
         if table is None:
             table = {}
@@ -170,7 +110,7 @@ class CachedHeuristic:
         miss = np.flatnonzero(out < 0)
         self.calls += n
         if len(miss):
-            h = self.inner(batch[miss], unsettled)
+            h = self.inner(batch[miss], goals)
             out[miss] = h
             for i, v in zip(miss.tolist(), h.tolist()):
                 table[rows[i]] = v
@@ -180,132 +120,6 @@ class CachedHeuristic:
                 old = next(iter(self.tables))
                 self.size -= len(self.tables.pop(old))
         return out
-
-
-@dataclass
-class TaskCosts:
-    """The optimal cost of every task from one state (-1: no plan exists, or a limit stopped the search)."""
-
-    costs: np.ndarray           # (T,) int64
-    closed: int                 # states closed (each reopening counts again)
-    reopened: int
-    seconds: float
-    complete: bool = True       # False if a limit stopped the search before every task was settled
-    settled_at: list = field(default_factory=list)   # closed count when each task was settled
-
-
-class MultiGoalSearch:
-    """A* by f-levels whose goal is any still-unsettled task: every task's optimal cost in one search."""
-
-    def __init__(self, bm: BatchedModel, goals: TaskGoals, heuristic=None, on_pop=None, deepest_first: bool = False):
-        """`heuristic` scores every generated state; `on_pop` (optional, costlier, e.g. LM-cut)
-        re-scores a state only when it is about to be closed, and defers it if its f rises.
-        `deepest_first`: within an f-level, close the states of largest g first (ties of f
-        broken toward goals, which matters on the plateau f = C*; any order within a level is exact)."""
-        self.bm, self.goals = bm, goals
-        self.h = heuristic or Blind()
-        self.on_pop = on_pop
-        self.deepest_first = deepest_first
-        self.trace = None           # a list: (f, states closed) is appended at every closing
-
-    def costs(self, state: int, time_limit: float | None = None, max_states: int | None = None) -> TaskCosts:
-        """Every task's optimal cost from `state` (an int state of the model)."""
-        t0 = time.perf_counter()
-        deadline = None if time_limit is None else t0 + time_limit
-        goals, bm = self.goals, self.bm
-        T = len(goals)
-        costs = np.full(T, -1, dtype=np.int64)
-        unsettled = np.ones(T, dtype=bool)
-        settled_at = [0] * T
-        version = 0                                 # bumped whenever a task is settled
-        start = bm.pack([state])
-        closed_states = ClosedStates(bm.n_words)
-        closed = reopened = 0
-
-        def dedupe(rows, g):
-            """(indices, sorted keys): one row per state (its smallest g), none closed at a g as small."""
-            pick, keys = cheapest_unique(rows, g)
-            keep = ~closed_states.closed_mask(keys, rows[pick], g[pick])
-            return pick[keep], keys[keep]
-
-        open_: dict[tuple, list] = {}
-        heap: list[tuple] = []
-        deep = self.deepest_first
-
-        def push(rows, g, f, scored=False):
-            ok = f < INF
-            rows, g, f = rows[ok], g[ok], f[ok]
-            if not len(f):
-                return
-            tie = -g if deep else np.zeros_like(g)
-            order = np.lexsort((tie, f))
-            rows, g, f, tie = rows[order], g[order], f[order], tie[order]
-            cut = np.flatnonzero((f[1:] != f[:-1]) | (tie[1:] != tie[:-1])) + 1
-            for lo, hi in zip(np.r_[0, cut].tolist(), np.r_[cut, len(f)].tolist()):
-                level = (int(f[lo]), int(tie[lo]))
-                if level not in open_:
-                    open_[level] = []
-                    heapq.heappush(heap, level)
-                open_[level].append((rows[lo:hi], g[lo:hi], version, scored))
-
-        h0 = self.h(start, unsettled)
-        push(start, np.zeros(1, dtype=np.int64), h0)
-        complete = True
-        while heap and unsettled.any():
-            if (deadline is not None and time.perf_counter() > deadline) or \
-                    (max_states is not None and closed >= max_states):
-                complete = False
-                break
-            level = heapq.heappop(heap)
-            chunks = open_.pop(level)
-            f = level[0]
-            rows = np.concatenate([c[0] for c in chunks])
-            g = np.concatenate([c[1] for c in chunks])
-            # Rows to re-score: queued under a larger task set (their f may have risen
-            # since), or not yet seen by the on-pop heuristic.
-            stale = np.concatenate([np.full(len(c[0]), c[2] < version or (self.on_pop is not None and not c[3]))
-                                    for c in chunks])
-            sel, keys = dedupe(rows, g)
-            rows, g, stale = rows[sel], g[sel], stale[sel]
-            if stale.any():
-                h = (self.on_pop or self.h)(rows[stale], unsettled)
-                f_new = np.where(h >= INF, INF, np.maximum(g[stale] + h, f))
-                later = np.flatnonzero(stale)[f_new > f]
-                push(rows[later], g[later], f_new[f_new > f], scored=True)
-                now = np.ones(len(rows), dtype=bool)
-                now[later] = False
-                rows, g, keys = rows[now], g[now], keys[now]
-            if not len(rows):
-                continue
-            # Close: new states are inserted, reopened ones get their smaller g.
-            reopened += closed_states.close(keys, rows, g)
-            closed += len(rows)
-            if self.trace is not None:
-                self.trace.append((f, len(rows)))
-            # Settle the tasks whose goal this level reaches, at the smallest g among its goal states.
-            open_tasks = np.flatnonzero(unsettled)
-            for lo in range(0, len(rows), CHUNK):
-                sat = goals.satisfied(rows[lo: lo + CHUNK], open_tasks)
-                for j in np.flatnonzero(sat.any(0)):
-                    t = open_tasks[j]
-                    c = int(g[lo: lo + CHUNK][sat[:, j]].min())
-                    if unsettled[t] or c < costs[t]:
-                        costs[t], unsettled[t], settled_at[t] = c, False, closed
-            if unsettled.sum() < len(open_tasks):
-                version += 1
-                if not unsettled.any():
-                    break
-            parent, _, child, cost = bm.successors(rows)
-            if not len(child):
-                continue
-            g_child = g[parent] + cost
-            sel, _ = dedupe(child, g_child)
-            child, g_child = child[sel], g_child[sel]
-            if not len(child):
-                continue
-            h = self.h(child, unsettled)
-            push(child, g_child, np.where(h >= INF, INF, np.maximum(g_child + h, f)))
-        return TaskCosts(costs, closed, reopened, time.perf_counter() - t0, complete, settled_at)
 
 
 # ---- the oracle --------------------------------------------------------------------------
@@ -332,56 +146,58 @@ class Label:
 class Labeller:
     """C_AP(s) = sum_tau P(tau) C*_tau(s) over every task instantiation of a layout, by one multi-goal search.
 
-    heuristic: "pdb" (min over the unsettled tasks of their pattern databases,
-    planning.heuristics.pdb; the default, for a layout whose rooms name its locations, else
-    "lmcut"), "lmcut" (LM-cut of the unsettled tasks' goals joined by "or";
-    planning.heuristics.lmcut), "lmcut-pc" (the same on the P^C compilation with the agent's
-    atom pairs, planning.heuristics.lmcut_pc; states that break the mutexes it relies on
-    are labelled with "lmcut"), "hmax" (min over the unsettled tasks of h_max) or
-    "blind" (Dijkstra). All are admissible, so every label is the same exact one.
+    heuristic: a name of the registry's "multi-goal" rows (planning.heuristics): "pdb" (min over the
+    unsettled tasks of their pattern databases, planning.heuristics.pdb; the default, for a layout whose
+    rooms name its locations, else "lmcut"), "lmcut" (LM-cut of the unsettled tasks' goals joined by "or";
+    planning.heuristics.lmcut), "lmcut-pc" (the same on the P^C compilation with the agent's atom pairs,
+    planning.heuristics.lmcut_pc; states that break the mutexes it relies on get "lmcut"), "hmax" (min
+    over the unsettled tasks of h_max) or "blind" (Dijkstra). All are admissible, so every label is the
+    same exact one. `cache`: memoize the heuristic across searches (CachedHeuristic; not for a row whose
+    estimate is a table lookup). `tie_break`: within an f, lower h first (CostLevels); the same labels.
     """
 
     def __init__(self, model, heuristic: str = "pdb", time_limit: float | None = None, cache: bool = True,
-                 deepest_first: bool = False):
-        heuristic = choose(heuristic, model, "multi-goal")
-        from planning.heuristics.lmcut import LMCut
-        from planning.heuristics.pdb import pattern_databases
-
-        self.model, self.time_limit = model, time_limit
+                 tie_break: bool = False):
+        self.model, self.time_limit, self.tie_break = model, time_limit, tie_break
         self.bm = BatchedModel(model)
         self.goals = TaskGoals(self.bm, model.tasks)
-        self.fallback = None
-        if heuristic == "pdb":
-            h = pattern_databases(model, self.bm.n_words)
-            cache = False                       # a lookup: cheaper than the cache's own lookup
-        elif heuristic == "lmcut":
-            h = UnionGoal(self.goals, LMCut(model, self.bm), "lmcut")
-        elif heuristic == "lmcut-pc":
-            from planning.heuristics.lmcut_pc import ConjunctionLMCut, MutexPairs, agent_pairs
-
-            self.mutex = MutexPairs(model, [model.init] + [model.reset_state(seed) for seed in range(32)])
-            pc = ConjunctionLMCut(model, self.bm, self.mutex, self.goals.literals, keep=agent_pairs(model))
-            h = UnionGoal(self.goals, pc, "lmcut-pc")
-            self.fallback = Labeller(model, "lmcut", time_limit, cache, deepest_first)
-        elif heuristic == "hmax":
-            h = MinHMax(self.goals)
-        else:
-            h = Blind()
-        self.heuristic = heuristic
-        if cache and heuristic != "blind":
+        self.heuristic = choose(heuristic, model, "multi-goal")
+        h = build(self.heuristic, self.bm, "multi-goal")        # None: blind, Dijkstra
+        if h is not None and cache and not HEURISTICS[self.heuristic].lookup:
             h = CachedHeuristic(h)
-        self.search = MultiGoalSearch(self.bm, self.goals, h, deepest_first=deepest_first)
+        self.h = h
 
     def label(self, state: int) -> Label:
         """C_AP of a state exactly as given (apply the finished task's consumption first)."""
-        if self.fallback is not None and not self.mutex.respects(state):
-            return self.fallback.label(state)
-        r = self.search.costs(state, time_limit=self.time_limit)
-        solved = r.costs >= 0
-        c_ap = float(self.goals.probabilities @ np.where(solved, r.costs, 0))
+        t0 = time.perf_counter()
+        goals, tasks = self.goals, self.goals.tasks
+        costs = np.full(len(goals), -1, dtype=np.int64)
+        unsettled = np.ones(len(goals), dtype=bool)
+
+        def h(batch):
+            return self.h(batch, [tasks[t] for t in np.flatnonzero(unsettled)])
+
+        levels = CostLevels(self.bm, state, time_limit=self.time_limit, heuristic=None if self.h is None else h,
+                            tie_break=self.tie_break)
+        for _, rows, _, g in levels:
+            # Settle the tasks whose goal this level reaches, at the smallest g among its goal states.
+            open_tasks = np.flatnonzero(unsettled)
+            for lo in range(0, len(rows), CHUNK):
+                sat = goals.satisfied(rows[lo: lo + CHUNK], open_tasks)
+                for j in np.flatnonzero(sat.any(0)):
+                    t = open_tasks[j]
+                    c = int(g[lo: lo + CHUNK][sat[:, j]].min())
+                    if unsettled[t] or c < costs[t]:
+                        costs[t], unsettled[t] = c, False
+            if not unsettled.any():
+                break
+            if unsettled.sum() < len(open_tasks):
+                levels.rescore()             # the minimum is over fewer tasks now: states opened before may wait
+        solved = costs >= 0
+        c_ap = float(goals.probabilities @ np.where(solved, costs, 0))
         if not solved.all():
             c_ap = float("inf")
-        return Label(c_ap, r.costs, r.seconds, r.closed, r.complete)
+        return Label(c_ap, costs, time.perf_counter() - t0, levels.closed, not unsettled.any() or levels.exhausted)
 
 
 def c_ap(model, state: int, heuristic: str = "pdb") -> float:

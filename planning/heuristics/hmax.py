@@ -1,10 +1,13 @@
 """Admissible heuristics for the exact searches, computed for a whole batch of states at once."""
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 
+from planning.states import INF_64
+
 INF = np.iinfo(np.int32).max // 4        # relaxed costs are int32 (half the memory traffic); INF + a cost fits
-INF_64 = np.iinfo(np.int64).max // 4     # "unreachable" for g and f values
 
 
 class HMax:
@@ -116,3 +119,85 @@ def goal_literals(model, task) -> list[list[int]]:
     """Each conjunction of a task's goal as literal indices (n + i stands for not atom i)."""
     n = model.n_atoms
     return [_bits(o.pos) + [n + i for i in _bits(o.neg)] for o in task.bindings]
+
+
+class GoalLiterals:
+    """goal_literals of a list of goals, their conjunctions in one DNF, memoized by the goals' bindings."""
+
+    MAX_ENTRIES = 4096
+
+    def __init__(self, model):
+        self.model, self._memo = model, {}
+
+    def __call__(self, goals: list) -> list[list[int]]:
+        key = tuple(tuple((o.pos, o.neg) for o in g.bindings) for g in goals)
+        dnf = self._memo.get(key)
+        if dnf is None:
+            if len(self._memo) >= self.MAX_ENTRIES:
+                self._memo.clear()
+            dnf = self._memo[key] = [c for g in goals for c in goal_literals(self.model, g)]
+        return dnf
+
+
+class MinHMax:
+    """The multi-goal search's h_max: min over the goals (the model's tasks) of their h_max, every task's from
+    one relaxed-cost table per batch (the union of all tasks' goals)."""
+
+    def __init__(self, model, bm):
+        self.hmax = HMax(model, bm)
+        lits = [goal_literals(model, t) for t in model.tasks]
+        self.union = [c for task in lits for c in task]
+        owner = np.array([t for t, task in enumerate(lits) for _ in task], dtype=np.int64)
+        self.starts = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])
+        always = self.hmax.n_atoms                  # literal_costs' last column: always 0
+        width = max((len(c) for c in self.union), default=1) or 1
+        self.conj = np.full((len(self.union), width), always, dtype=np.int64)
+        for k, c in enumerate(self.union):
+            self.conj[k, : len(c)] = c
+
+    def per_task(self, batch: np.ndarray) -> np.ndarray:
+        """(N, T) h_max of every task (INF_64: dead end)."""
+        cost = self.hmax.literal_costs(batch, self.union)                # (N, 2 atoms + 1)
+        per_conj = cost[:, self.conj].max(-1).astype(np.int64)          # (N, K)
+        h = np.minimum.reduceat(per_conj, self.starts, axis=1)
+        h[h >= INF] = INF_64
+        return h
+
+    def __call__(self, batch: np.ndarray, goals: list) -> np.ndarray:
+        if not len(batch):
+            return np.zeros(0, dtype=np.int64)
+        return self.per_task(batch)[:, [t.index for t in goals]].min(1)
+
+
+def build(bm, search: str):
+    """The registry's builder (planning.heuristics): h_max of the nearest goal's DNF on the model's relaxed_view
+    (task search), of the current stage (window), or the min over the tasks of one table (multi-goal)."""
+    if search == "multi-goal":
+        return MinHMax(bm.model, bm)
+    h, literals = HMax(relaxed_view(bm.model), bm), GoalLiterals(bm.model)
+    if search == "window":
+        return lambda batch, goals: h(batch, literals(goals[:1]))
+    return lambda batch, goals: h(batch, literals(goals))
+
+
+def relaxed_view(model):
+    """The model as the delete-relaxation heuristics (HMax, LMCut) are to read it: the model itself, or, where it
+    has derived predicates, its operators plus one zero-cost operator per ground axiom (body -> head) and one
+    that makes every negated derived atom free. Relaxed reachability then follows the axioms; giving the
+    negated atoms away only lowers the estimates, so both heuristics stay admissible."""
+    axioms = getattr(model, "axioms", None)
+    if axioms is None:
+        return model
+    from planning.domain.model import Op
+
+    ops, op_action, cost = list(model.ops), list(model.op_action), list(model.action_cost)
+    free = len(cost)
+    cost.append(0)
+    for stratum in axioms.strata:
+        for pos, neg, head in stratum:
+            ops.append(Op(pos, neg, head, 0))
+            op_action.append(free)
+    ops.append(Op(0, 0, 0, axioms.mask))
+    op_action.append(free)
+    return SimpleNamespace(n_atoms=model.n_atoms, atoms=model.atoms, ops=ops, op_action=op_action,
+                           action_cost=cost, name=model.name, layout=model.layout)

@@ -30,7 +30,8 @@ from typing import NamedTuple
 import numpy as np
 
 from planning.errors import DomainError
-from planning.heuristics.hmax import INF, INF_64, HMax
+from planning.heuristics.hmax import INF, GoalLiterals, HMax, relaxed_view
+from planning.states import INF_64
 
 CHUNK = 512         # states per numpy pass: keeps the (achievers, states) arrays in cache
 
@@ -126,6 +127,15 @@ class LMCut:
             cuts[s].append(flat[i + 2: i + 2 + k])
             i += 2 + k
         return h, cuts
+
+
+def build(bm, search: str):
+    """The registry's builder (planning.heuristics): LM-cut, on the model's relaxed_view, of the goals' DNF
+    (task and multi-goal searches: the nearest goal) or of the current stage (window)."""
+    h, literals = LMCut(relaxed_view(bm.model), bm), GoalLiterals(bm.model)
+    if search == "window":
+        return lambda batch, goals: h(batch, literals(goals[:1]))
+    return lambda batch, goals: h(batch, literals(goals))
 
 
 def _native_batch(lib, task: "Relaxed", holds: np.ndarray, landmarks: bool = False):

@@ -15,7 +15,8 @@ What is generic here:
     and that every action keeps apart (the h^2-style fixpoint on pairs); with
     them the compilation drops achievers whose regression is impossible. They
     are invariants of every state reachable from a state that respects them, so
-    `MutexPairs.respects` is checked on each state before it is labelled.
+    P^C is read only on states that respect them (`MutexPairs.respected`); a
+    state that breaks one gets LM-cut of the plain relaxation.
   * C: every non-mutex pair of fluent atoms that occurs together in an action's
     positive precondition or in a task goal's conjunction.
 
@@ -53,6 +54,8 @@ def _cases(op):
 
 class MutexPairs:
     """Pairs of atoms that can never hold together in a state reachable from a state respecting them."""
+
+    CHUNK = 1024             # states per check in `respected`
 
     def __init__(self, model, initial_states):
         n = model.n_atoms
@@ -99,6 +102,14 @@ class MutexPairs:
         """True if no mutex pair holds together in `state`."""
         t = np.array([state >> i & 1 for i in range(self.n)], dtype=bool)
         return not (t[self.p] & t[self.q]).any()
+
+    def respected(self, bits: np.ndarray) -> np.ndarray:
+        """(N,) bool of (N, atoms) state bits: which states hold no mutex pair together."""
+        out = np.ones(len(bits), dtype=bool)
+        for lo in range(0, len(bits), self.CHUNK):
+            b = bits[lo: lo + self.CHUNK].astype(bool)
+            out[lo: lo + self.CHUNK] = ~(b[:, self.p] & b[:, self.q]).any(1)
+        return out
 
     def any_pair(self, atoms) -> bool:
         a = np.asarray(list(atoms), dtype=np.int64)
@@ -216,6 +227,37 @@ class ConjunctionLMCut:
 
     def __call__(self, batch: np.ndarray, goal: list[list[int]]) -> np.ndarray:
         return self.lmcut.of_relaxed(batch, self.tables(goal))
+
+
+class PairsLMCut:
+    """The multi-goal search's LM-cut on P^C: h(batch, goals) of the goals' DNF, P^C on the states that respect
+    its mutexes, the plain relaxation's LM-cut on any other."""
+
+    def __init__(self, model, bm):
+        from planning.heuristics.hmax import GoalLiterals, goal_literals
+        from planning.heuristics.lmcut import LMCut
+
+        self.bm = bm
+        self.mutex = MutexPairs(model, [model.init] + [model.reset_state(seed) for seed in range(32)])
+        self.pc = ConjunctionLMCut(model, bm, self.mutex, [goal_literals(model, t) for t in model.tasks],
+                                   keep=agent_pairs(model))
+        self.plain = LMCut(model, bm)
+        self.literals = GoalLiterals(model)
+
+    def __call__(self, batch: np.ndarray, goals: list) -> np.ndarray:
+        dnf = self.literals(goals)
+        ok = self.mutex.respected(self.bm.to_bits(batch))
+        if ok.all():
+            return self.pc(batch, dnf)
+        out = np.empty(len(batch), dtype=np.int64)
+        out[ok] = self.pc(batch[ok], dnf)
+        out[~ok] = self.plain(batch[~ok], dnf)
+        return out
+
+
+def build(bm, search: str) -> PairsLMCut:
+    """The registry's builder (planning.heuristics); the multi-goal search is the one it serves."""
+    return PairsLMCut(bm.model, bm)
 
 
 def mutex_free(mutex: MutexPairs, atoms) -> bool:

@@ -42,9 +42,8 @@ from scipy.sparse.csgraph import dijkstra
 
 from planning.domain.batched import BatchedModel
 from planning.errors import DomainError
-from planning.heuristics.hmax import INF_64
 from planning.domain.batched import satisfied
-from planning.search.state_table import StateTable, state_keys
+from planning.states import INF_64, StateTable, state_keys
 
 CHUNK = 1 << 14             # abstract states expanded per numpy call
 WINDOW_CACHE_BYTES = 1 << 31    # window distance tables kept for windows of tasks seen again
@@ -514,7 +513,7 @@ class PatternDatabases:
         """(N, G) int64 admissible cost of each goal (anything with `bindings`, a DNF of Ops: a task,
         or a task with an extra clause) from each state (INF_64: a dead end), in one gather over the
         stacked distance tables. `key` names the goal list for reuse of its gather plan."""
-        key = key if key is not None else tuple((o.pos, o.neg) for g in goals for o in g.bindings)
+        key = key if key is not None else tuple(tuple((o.pos, o.neg) for o in g.bindings) for g in goals)
         if key not in self._plans:
             self._plans[key] = self._plan(goals)
         if self._stacked is None:
@@ -547,13 +546,6 @@ class PatternDatabases:
         arrays = [(np.array(c), np.array(o, dtype=np.int64), np.array(s)) for c, o, s, _ in cols]
         return projections, arrays[0], arrays[1], np.array(goal_starts)
 
-    def __call__(self, batch: np.ndarray, unsettled: np.ndarray) -> np.ndarray:
-        """min over the unsettled tasks: the labelling search's heuristic contract."""
-        if not len(batch):
-            return np.zeros(0, dtype=np.int64)
-        tasks = np.flatnonzero(unsettled)
-        return self.per_goal(batch, [self.tasks[t] for t in tasks], key=unsettled.tobytes()).min(1)
-
 
 class _Nowhere:
     """The projection of a binding without patterns: every state maps to the stacked tables' leading 0."""
@@ -575,6 +567,15 @@ def pattern_databases(model, n_words: int) -> PatternDatabases:
     per process (every search over the layout shares them)."""
     bm = BatchedModel(model, extra_bits=n_words * 64 - model.n_atoms)
     return PatternDatabases(model, bm)
+
+
+def build(bm, search: str):
+    """The registry's builder (planning.heuristics): the layout's pattern databases, the nearest goal's estimate
+    (task and multi-goal searches), or in the window the larger of the current stage's and the window's."""
+    pdb = pattern_databases(bm.model, bm.n_words)
+    if search == "window":
+        return lambda batch, goals: np.maximum(pdb.per_goal(batch, goals[:1])[:, 0], pdb.window_estimate(batch, goals))
+    return lambda batch, goals: pdb.per_goal(batch, goals).min(1)
 
 
 def _reset_states(model, limit: int = 4096) -> list[int]:

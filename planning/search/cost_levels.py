@@ -2,7 +2,7 @@
 
 States are closed in order of increasing f = g + h, level by level; with no
 heuristic this is Dijkstra and a state is closed at its optimal cost, the first
-time it appears. Duplicate detection is exact (`planning.search.state_table`).
+time it appears. Duplicate detection is exact (`planning.states`).
 This is what makes exact optimal planning cheap in Python: the per-state work
 happens inside numpy, at millions of transitions per second.
 
@@ -24,8 +24,7 @@ import time
 
 import numpy as np
 
-from planning.heuristics.hmax import INF_64 as INF
-from planning.search.state_table import ClosedStates, StateTable, cheapest_unique
+from planning.states import INF_64 as INF, ClosedStates, StateTable, cheapest_unique
 
 SUCCESSOR_CHUNK = 8192    # parents per successor call of a level under a time limit
 H_CHUNK = 256             # states in the first heuristic call under a time limit (doubled while cheap)

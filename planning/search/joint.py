@@ -7,10 +7,12 @@ applied and the stage advances (a task that then already holds completes too).
 
 Two compilations of the same window:
 - `JointSearch`: our exact A*, where completion is a vectorized step applied to
-  every generated state, and h = LM-cut of the stage-layered delete relaxation
-  of the stages left (`layered_relaxation`): it sees that two water tasks need
-  water twice, because the first cup's water is consumed, while a filled jar
-  carries over.
+  every generated state, and h is a "window" heuristic of the registry
+  (planning.heuristics) of each state's stages left, e.g. the pattern
+  databases of the window, or LM-cut of the stage-layered delete relaxation
+  (planning.heuristics.layered), which sees that two water tasks need water
+  twice, because the first cup's water is consumed, while a filled jar carries
+  over.
 - `joint_up_problem`: a unified-planning problem Fast Downward accepts, where
   primitive actions are blocked while the current stage's goal holds and
   zero-cost completion actions fire in first-binding order.
@@ -20,13 +22,10 @@ from __future__ import annotations
 import numpy as np
 
 from planning.domain.batched import BatchedModel
-from planning.errors import DomainError
-from planning.heuristics import choose
-from planning.heuristics.hmax import INF_64, HMax, goal_literals
+from planning.heuristics import build
 from planning.search.cost_levels import CostLevels
-from planning.heuristics.lmcut import LMCut, Relaxed, compile_relaxed
-from planning.heuristics.pdb import pattern_databases
 from planning.search.optimal import SearchResult
+from planning.states import INF_64
 
 
 class JointSearch:
@@ -36,10 +35,7 @@ class JointSearch:
         self.model = model
         self.n = model.n_atoms
         self.bm = BatchedModel(model, extra_bits=max_window + 1)
-        self.hmax = HMax(model, self.bm)
-        self.lmcut = LMCut(model, self.bm, self.hmax)
         self.max_window = max_window
-        self._relaxed: dict = {}
 
     def _stage_word(self, k: int) -> tuple[int, np.uint64]:
         bit = self.n + k
@@ -56,7 +52,6 @@ class JointSearch:
     def _complete(self, batch: np.ndarray, tasks: list) -> np.ndarray:
         """Complete every stage whose goal holds, in order, with consumption (vectorized)."""
         batch = batch.copy()
-        K = len(tasks)
         for k, task in enumerate(tasks):
             w, b = self._stage_word(k)
             rows = np.flatnonzero((batch[:, w] & b) != 0)
@@ -77,32 +72,24 @@ class JointSearch:
             batch[rows] = sub
         return batch
 
-    def relaxation(self, tasks: list, stage: int) -> Relaxed:
-        """The stage-layered relaxation of a window from a stage on (cached)."""
-        key = (tuple(t.index for t in tasks), stage)
-        if key not in self._relaxed:
-            self._relaxed[key] = layered_relaxation(self.lmcut, self.model.n_atoms, tasks, stage)
-        return self._relaxed[key]
-
     def plan(self, state: int, tasks: list, max_states: int | None = None,
              time_limit: float | None = None, heuristic: str = "pdb", weight: int = 1) -> SearchResult:
         """An optimal plan that completes the tasks in order from a world state.
 
-        heuristic: "pdb" (the larger of the current task's pattern databases and the window's,
-        planning.heuristics.pdb, which see the round trips and the one hand that relaxations miss; the
-        window's follow the stages left through their goals and consumptions; LM-cut is left
-        out: on three-task windows it took 88% of the time and solved fewer), "layered"
-        (LM-cut of the stages left), "lmcut" or "hmax" (of the current stage).
+        heuristic: a name of the registry's "window" rows (planning.heuristics), each state scored on
+        the tasks of its stages left: "pdb" (the larger of the current task's pattern databases and the
+        window's, planning.heuristics.pdb, which see the round trips and the one hand that relaxations
+        miss; the window's follow the stages left through their goals and consumptions; LM-cut is left
+        out: on three-task windows it took 88% of the time and solved fewer), "layered" (LM-cut of the
+        stages left), "lmcut" or "hmax" (of the current stage).
         weight > 1: weighted A* (f = g + weight * h), a plan at most `weight` times the optimal
         cost; lower_bound is then the last f-level / weight. With weight 1 an interrupted
         search still proves lower_bound <= the optimal cost (the clairvoyant's bounded windows).
         """
-        heuristic = choose(heuristic, self.model, "window")
-        pdb = pattern_databases(self.model, self.bm.n_words) if heuristic == "pdb" else None
+        stages_left = build(heuristic, self.bm, "window")
         K = len(tasks)
         if K > self.max_window:
             raise ValueError(f"window of {K} tasks, built for at most {self.max_window}")
-        goals = [goal_literals(self.model, t) for t in tasks]
         start = self._complete(self.bm.pack([state | (1 << self.n)]), tasks)
 
         def h(batch):
@@ -112,13 +99,7 @@ class JointSearch:
                 sel = stage == k
                 if not sel.any():
                     continue
-                if heuristic == "pdb":
-                    out[sel] = np.maximum(pdb.per_task(batch[sel], [tasks[k].index])[:, 0],
-                                          pdb.window_estimate(batch[sel], tasks[k:]))
-                elif heuristic == "layered":
-                    out[sel] = self.lmcut.of_relaxed(batch[sel], self.relaxation(tasks, k))
-                else:
-                    out[sel] = (self.lmcut if heuristic == "lmcut" else self.hmax)(batch[sel], goals[k])
+                out[sel] = stages_left(batch[sel], tasks[k:])
             return np.where(out >= INF_64, INF_64, out * weight)
 
         levels = CostLevels(self.bm, self.bm.unpack(start)[0], max_states, time_limit, heuristic=h,
@@ -131,77 +112,6 @@ class JointSearch:
                 return SearchResult(levels.plan_to(int(ids[i])), int(g[i]), levels.closed, True,
                                     -(-levels.f // weight))
         return SearchResult(None, None, levels.closed, levels.exhausted, -(-levels.f // weight))
-
-
-def layered_relaxation(lmcut: LMCut, n: int, tasks: list, first: int) -> Relaxed:
-    """The stage-layered delete relaxation of a window's stages first..K-1, compiled for LM-cut.
-
-    Literal p@k (key (k, p)) holds at some time during stage k; every action has
-    a copy per stage. Stage k's completion needs its goal @k (and stage k-1
-    done) and adds done@k; its consumption's effects hold @k+1. A literal
-    carries over from @k to @k+1 unless the consumption may delete it: then it
-    carries over only next to the goal of a binding that keeps it (that binding
-    fired, so its goal held) and, if one binding before it deletes the literal,
-    the negation of one literal of that binding's goal (it did not fire).
-    Every real plan of the window maps to a relaxed plan: admissible.
-    """
-    K = len(tasks)
-    neg = lambda lit: lit + n if lit < n else lit - n
-    lits = lambda mask, offset=0: [i + offset for i in range(mask.bit_length()) if mask >> i & 1]
-    conj = lambda op: lits(op.pos) + lits(op.neg, n)
-    base = lmcut.achievers()
-    rows, costs = [], {}
-    for k in range(first, K):
-        done_before = [("done", k - 1)] if k > first else []
-        for pre, o, e in base:
-            rows.append(([(k, p) for p in pre], (k, o), (k, e)))
-        for o, c in enumerate(lmcut.operator_costs()):
-            costs[(k, o)] = c
-        bindings = tasks[k].bindings
-        for b, op in enumerate(bindings):
-            name = ("complete", k, b)
-            costs[name] = 0
-            pre = [(k, q) for q in conj(op)] + done_before
-            rows.append((pre, name, ("done", k)))
-            if k + 1 == K:
-                continue
-            for e in lits(op.add) + lits(op.dele & ~op.add, n):
-                rows.append((pre, name, (k + 1, e)))
-            for cp, cn, ca, cd in op.cond:
-                cpre = pre + [(k, q) for q in lits(cp) + lits(cn, n)]
-                for e in lits(ca) + lits(cd & ~ca, n):
-                    rows.append((cpre, name, (k + 1, e)))
-        if k + 1 == K:
-            continue
-        # Which bindings' consumption may remove a literal: unconditionally or under a condition.
-        kills = [dict() for _ in bindings]
-        for b, op in enumerate(bindings):
-            for e in lits(op.dele & ~op.add) + lits(op.add, n):
-                kills[b][e] = None
-            for cp, cn, ca, cd in op.cond:
-                for e in lits(cd & ~ca) + lits(ca, n):
-                    kills[b].setdefault(e, lits(cp) + lits(cn, n) or None)
-        for p in range(2 * n):
-            name = ("carry", k, p)
-            costs[name] = 0
-            keep = [(k, p), ("done", k)]
-            if not any(p in kb for kb in kills):
-                rows.append((keep, name, (k + 1, p)))
-                continue
-            for f, op in enumerate(bindings):
-                cond = kills[f].get(p, [])
-                if cond is None:
-                    continue                            # f fired: p is gone
-                pre = keep + [(k, q) for q in conj(op)]
-                earlier = [b for b in range(f) if kills[b].get(p, 0) is None]
-                options = [[]]
-                if len(earlier) == 1:                   # that binding did not fire: one of its literals failed
-                    options = [[(k, neg(q))] for q in conj(bindings[earlier[0]])] or [[]]
-                if cond:                                # f fired but its conditional delete did not
-                    options = [o + [(k, neg(x))] for o in options for x in cond]
-                for extra in options:
-                    rows.append((pre + extra, name, (k + 1, p)))
-    return compile_relaxed(rows, costs, ("done", K - 1), {(first, p): p for p in range(2 * n)})
 
 
 def joint_up_problem(model, state: int, tasks: list):

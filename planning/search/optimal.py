@@ -2,12 +2,9 @@
 from __future__ import annotations
 
 import heapq
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
-
-from planning.errors import DomainError
 
 
 @dataclass
@@ -61,11 +58,11 @@ def optimal_plan(bm, state: int, task, max_states: int | None = None,
                  tie_break: bool | None = None) -> SearchResult:
     """An optimal plan for one task: A* by f-levels, expanding each level in one numpy call.
 
-    heuristic: "pdb" (the layout's pattern databases, planning.heuristics.pdb; LM-cut, reported once on
-    stderr, for a layout whose rooms do not name its locations), "lmcut", "hmax" or "blind"; all
-    admissible, so the cost is the same as uniform_cost_search's, many times faster (the plan may be
-    another of equal cost). The default (None) is "pdb", or "lmcut" on a model with derived predicates
-    (where pattern databases are refused: planning.heuristics).
+    heuristic: a name of the registry's "task" rows (planning.heuristics), e.g. "pdb" (the layout's pattern
+    databases; LM-cut, reported once on stderr, for a layout whose rooms do not name its locations),
+    "lmcut", "hmax" or "blind", or "a+b" (the larger of two); all admissible, so the cost is the same as
+    uniform_cost_search's, many times faster (the plan may be another of equal cost). The default (None)
+    is "pdb", or "lmcut" on a model with derived predicates (where pattern databases are refused).
     `task` is anything with `bindings` (a DNF of Ops), e.g. a task with an extra clause.
     plan is None if no plan exists (complete=True) or a limit stopped the search (complete=False).
     """
@@ -103,22 +100,23 @@ def optimal_plans(bm, state: int, goals: list, max_states: int | None = None,
     is nearly exact, the same costs. A time limit is honoured within about a second.
     """
     from planning.domain.batched import goal_arrays, satisfied
+    from planning.heuristics import build
     from planning.search.cost_levels import CostLevels
 
     if not goals:
         return []
-    nearest = goals_heuristic(bm, goals, heuristic or default_heuristic(bm.model))
+    nearest = build(heuristic or default_heuristic(bm.model), bm, "task")     # None: blind, Dijkstra
     open_ = np.ones(len(goals), dtype=bool)
 
     def h(batch):
-        return nearest(batch, open_)
+        return nearest(batch, [goals[k] for k in np.flatnonzero(open_)])
 
     arrays = [goal_arrays(bm, g) for g in goals]
     out: list[SearchResult | None] = [None] * len(goals)
     if tie_break is None:
         tie_break = TIE_BREAK
-    blind = (heuristic or default_heuristic(bm.model)) == "blind"      # Dijkstra: no h to score or break ties by
-    levels = CostLevels(bm, state, max_states, time_limit, heuristic=None if blind else h, tie_break=tie_break)
+    levels = CostLevels(bm, state, max_states, time_limit, heuristic=None if nearest is None else h,
+                        tie_break=tie_break)
     for _, rows, ids, g in levels:
         reached = False
         for k in np.flatnonzero(open_):
@@ -136,35 +134,3 @@ def optimal_plans(bm, state: int, goals: list, max_states: int | None = None,
         if reached:
             levels.rescore()                 # the minimum is over fewer goals now: states opened before may wait
     return [r if r is not None else SearchResult(None, None, levels.closed, levels.exhausted) for r in out]
-
-
-_RELAXED: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()   # per BatchedModel: its HMax and LMCut
-
-
-def goals_heuristic(bm, goals: list, heuristic: str | None = None):
-    """h(batch, open) -> (N,) an admissible cost to the nearest of the goals marked open (a bool mask);
-    the tables behind it are built once per model. PDBs: the minimum of the goals' estimates; LM-cut
-    and h_max: one computation for the open goals' conjunctions joined by "or" (on the model's
-    relaxed_view where it has derived predicates); "pdb+lmcut": the larger of the two; blind: 0."""
-    from planning.heuristics import choose, relaxed_view
-    from planning.heuristics.hmax import HMax, goal_literals
-    from planning.heuristics.lmcut import LMCut
-    from planning.heuristics.pdb import pattern_databases
-
-    heuristic = heuristic or default_heuristic(bm.model)
-    if "+" in heuristic:                     # the maximum of admissible estimates: admissible, and as good as the best
-        parts = [goals_heuristic(bm, goals, h) for h in heuristic.split("+")]
-        return lambda batch, open_: np.max([h(batch, open_) for h in parts], axis=0)
-    heuristic = choose(heuristic, bm.model, "task")
-    if heuristic == "blind":
-        return lambda batch, open_: np.zeros(len(batch), dtype=np.int64)
-    if heuristic == "pdb":
-        pdb = pattern_databases(bm.model, bm.n_words)
-        return lambda batch, open_: pdb.per_goal(batch, goals)[:, open_].min(1)
-    if bm not in _RELAXED:
-        view = relaxed_view(bm.model)
-        hmax = HMax(view, bm)
-        _RELAXED[bm] = {"hmax": hmax, "lmcut": LMCut(view, bm, hmax)}
-    h = _RELAXED[bm]["hmax" if heuristic == "hmax" else "lmcut"]
-    conjs = [goal_literals(bm.model, g) for g in goals]
-    return lambda batch, open_: h(batch, [c for k in np.flatnonzero(open_) for c in conjs[k]])

@@ -174,14 +174,14 @@ def test_costs_equal_single_task_plans_on_random_states(two_room):
 
 
 def test_cache_and_tie_breaking_change_no_cost(two_room):
-    """The memoized LM-cut and deepest-first ties settle the same costs as the plain search;
+    """The memoized LM-cut and ties broken lower h first settle the same costs as the plain search;
     labelling neighbouring states one after another reuses heuristic values."""
     states = two_room.random_walk_states(3, seed=8, walk=6)
     plain = Labeller(two_room, "lmcut", cache=False)
     cached = Labeller(two_room, "lmcut")
-    deep = Labeller(two_room, "lmcut", deepest_first=True)
+    deep = Labeller(two_room, "lmcut", tie_break=True)
     for s in states:
         want = plain.label(s).costs
         assert (cached.label(s).costs == want).all() and (deep.label(s).costs == want).all()
-    h = cached.search.h
+    h = cached.h
     assert 0 < h.computed < h.calls

@@ -5,6 +5,7 @@ import pytest
 from planning.domain.batched import BatchedModel
 from planning.external.fast_downward import run_planner
 from planning.heuristics.hmax import goal_literals
+from planning.heuristics.layered import LayeredLMCut
 from planning.search.joint import JointSearch, joint_up_problem
 from planning.search.optimal import optimal_plan
 from planning.world.task_stream import PersistentWorld
@@ -13,6 +14,12 @@ from planning.world.task_stream import PersistentWorld
 @pytest.fixture(scope="module")
 def joint(two_room):
     return JointSearch(two_room)
+
+
+@pytest.fixture(scope="module")
+def layered_lmcut(two_room, joint):
+    """The window search's "layered" heuristic on the joint states."""
+    return LayeredLMCut(two_room, joint.bm)
 
 
 def fast_downward_cost(model, state, window):
@@ -188,7 +195,7 @@ def joint_states_along(joint, state, window, plan):
                                         (["clear(servingtable)", "pick-place(plate_0, shelf)"], 575),
                                         (["clear(servingtable)", "pick-place(plate_0, shelf)",
                                           "pick-place(cup_0, servingtable)"], 1000)])
-def test_layered_relaxation_is_admissible_along_optimal_plans(two_room, joint, names, cost):
+def test_layered_relaxation_is_admissible_along_optimal_plans(two_room, joint, layered_lmcut, names, cost):
     # Exact costs by A* with LM-cut of the current stage alone, then the
     # layered LM-cut of every state on that optimal plan stays below the cost still to pay.
     state = two_room.reset_state(0)
@@ -201,7 +208,7 @@ def test_layered_relaxation_is_admissible_along_optimal_plans(two_room, joint, n
     for rows, g in joint_states_along(joint, state, window, exact.plan):
         stage = int(joint._stages(rows, K)[0])
         if stage < K:
-            h = int(joint.lmcut.of_relaxed(rows, joint.relaxation(window, stage))[0])
+            h = int(layered_lmcut(rows, window[stage:])[0])
             assert h <= exact.cost - g
 
 
@@ -229,19 +236,19 @@ def test_saturated_window_partition_adds_disjoint_patterns_admissibly(two_room, 
         for parts in estimates:
             assert value(parts, rows) <= exact.cost - g
 
-def test_layered_relaxation_sees_the_second_water(two_room, joint):
+def test_layered_relaxation_sees_the_second_water(two_room, joint, layered_lmcut):
     # Per stage, LM-cut sees one water task (1450); layered over both: the first cup's water is
     # consumed, so the second needs water again; a jar filled once carries over (1500 < 2 fills).
     water = two_room.tasks.get("serve-water(servingtable)")
     start = joint.bm.pack([two_room.reset_state(0) | (1 << joint.n)])
     goal = goal_literals(two_room, water)
-    assert int(joint.lmcut(start, goal)[0]) == 1450
-    assert int(joint.lmcut.of_relaxed(start, joint.relaxation([water, water], 0))[0]) == 1500
+    assert int(layered_lmcut.lmcut(start, goal)[0]) == 1450
+    assert int(layered_lmcut(start, [water, water])[0]) == 1500
     coffee = two_room.tasks.get("make-coffee(servingtable)")
-    assert int(joint.lmcut.of_relaxed(start, joint.relaxation([water, coffee], 0))[0]) == 1600
+    assert int(layered_lmcut(start, [water, coffee])[0]) == 1600
 
 
-def test_layered_values_agree_between_native_and_numpy(two_room, joint, monkeypatch):
+def test_layered_values_agree_between_native_and_numpy(two_room, joint, layered_lmcut, monkeypatch):
     import planning.heuristics.lmcut as lmcut_module
 
     if lmcut_module.native() is None:
@@ -250,10 +257,10 @@ def test_layered_values_agree_between_native_and_numpy(two_room, joint, monkeypa
     states = two_room.random_walk_states(150, seed=4)
     for window, stage in [([water, water], 0), ([water, coffee, water], 1)]:
         batch = joint.bm.pack([s | (1 << (joint.n + stage)) for s in states])
-        relaxed = joint.relaxation(window, stage)
-        fast = joint.lmcut.of_relaxed(batch, relaxed)
+        relaxed = layered_lmcut.relaxation(window[stage:])
+        fast = layered_lmcut.lmcut.of_relaxed(batch, relaxed)
         monkeypatch.setattr(lmcut_module, "_NATIVE", False)
-        slow = joint.lmcut.of_relaxed(batch, relaxed)
+        slow = layered_lmcut.lmcut.of_relaxed(batch, relaxed)
         monkeypatch.setattr(lmcut_module, "_NATIVE", None)
         assert (fast == slow).all() and fast.min() > 0
 

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from planning.domain.batched import BatchedModel
-from planning.heuristics.hmax import INF_64, HMax, goal_literals
+from planning.heuristics.hmax import HMax, goal_literals
+from planning.states import INF_64
 import planning.heuristics.lmcut as lmcut_module
 from planning.heuristics.lmcut import LMCut
 from planning.domain.model import Op

@@ -49,7 +49,7 @@ def test_admissible_and_labels_unchanged_on_reachable_states(two_room):
     for s in two_room.random_walk_states(6, seed=3, walk=25):
         exact = lmcut_lab.label(s).costs
         assert (pdb_lab.label(s).costs == exact).all()
-        assert (pdb_lab.search.h.per_task(pdb_lab.bm.pack([s]))[0] <= exact).all()
+        assert (pattern_databases(two_room, pdb_lab.bm.n_words).per_task(pdb_lab.bm.pack([s]))[0] <= exact).all()
 
 
 def test_a_state_outside_the_explored_space_gets_zero(two_room):

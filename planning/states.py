@@ -1,13 +1,17 @@
-"""Sets of packed states keyed for fast sorting: the duplicate detection of the batched searches.
+"""Packed states: sets of them keyed for fast sorting (the batched searches' duplicate detection), and INF_64.
 
 A state (a row of W uint64 words) is keyed by a 64-bit mix of its words; every
 key match is checked against the stored row, so a true collision raises, never
 misleads. Shared by the cost-level A* (`planning.search.cost_levels`) and the
-pattern-database projections.
+pattern-database projections (`planning.heuristics.pdb`). INF_64 is the int64
+cost of an unreachable state: a g, f or heuristic value no plan attains, with
+room to add costs to it without overflow.
 """
 from __future__ import annotations
 
 import numpy as np
+
+INF_64 = np.iinfo(np.int64).max // 4     # "unreachable" for g, f and h values
 
 _MIX = np.uint64(0x9E3779B97F4A7C15)
 
