@@ -46,7 +46,7 @@ from experiments.report_specs import (AGENTS, LAYOUTS, THESIS, THESIS_DISCOUNT, 
 from planning import cli
 from planning.atomic import write_json, write_text
 from planning.errors import DomainError
-from planning.world.runner import results_provenance
+from planning.parallel import results_provenance
 
 NOTES = Path("docs/results-notes.md")
 """Hand-kept notes with no generator yet: included verbatim as the report's appendix."""

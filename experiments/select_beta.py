@@ -23,7 +23,8 @@ from planning import cli
 from planning.atomic import write_json
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
-from planning.world.runner import evaluate, improvement, results_provenance
+from planning.parallel import results_provenance
+from planning.world.runner import evaluate, improvement
 from planning.world.sequences import COUNT, DEVELOPMENT
 
 THESIS_BETAS = (1.25, 3.0, 6.0, 8.0)

@@ -41,7 +41,7 @@ import torch
 
 from planning import cli
 from planning.atomic import write_json
-from planning.world.runner import results_provenance
+from planning.parallel import results_provenance
 from planning.domain.compiler import compile_domain
 
 from .dqn import HORIZONS, Config, Trainer, domain_defaults

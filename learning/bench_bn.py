@@ -38,7 +38,7 @@ import numpy as np
 
 from planning import cli
 from planning.atomic import write_json
-from planning.world.runner import results_provenance
+from planning.parallel import results_provenance
 from planning.domain.batched import BatchedModel
 from planning.domain.compiler import compile_domain
 from learning.guided import search_defaults

@@ -64,7 +64,7 @@ from planning import cli
 from planning.atomic import OutputLock, sha256, write_json
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
-from planning.world.runner import results_provenance
+from planning.parallel import results_provenance
 
 from learning.dqn import LEGACY, Config, bound_suffix, file_in, file_name, read_metrics
 from learning.plain import full_precision, to_half

@@ -30,7 +30,7 @@ from scipy import stats
 
 from planning import cli
 from planning.atomic import write_json
-from planning.world.runner import results_provenance
+from planning.parallel import results_provenance
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 

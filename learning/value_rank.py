@@ -37,7 +37,7 @@ from planning import cli
 from planning.atomic import write_json
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
-from planning.world.runner import results_provenance
+from planning.parallel import results_provenance
 
 from learning.values import HELP, load_value
 

@@ -240,3 +240,42 @@ def provenance() -> dict:
         commit = None
     return {"commit": commit, "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]),
             "written": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+
+
+def results_provenance(config: dict, played=(), kept: dict | None = None) -> dict:
+    """A results file's `provenance` (SPEC.md): commit, command and date (`provenance`),
+    whether tracked code differed from the commit, the UTC date, the machine, the sha256 of the
+    checkpoint the configuration names, the sequences this command played (here or on its workers)
+    and, per sequence of the file, the run that played it (`sequences`: this one's commit and date
+    for the sequences played now, the earlier run's for those kept; `kept` gives those)."""
+    import os
+    import platform
+    import subprocess
+    from datetime import datetime, timezone
+
+    from planning.atomic import sha256
+
+    out = provenance()
+    if getattr(sys, "orig_argv", None) and "-m" in sys.orig_argv:
+        out["command"] = " ".join(["python", *sys.orig_argv[sys.orig_argv.index("-m"):]])
+    try:
+        changed = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", "*.py", "*.pddl",
+                                  "*.toml", ":(exclude)tests"], cwd=Path(__file__).resolve().parents[1], capture_output=True,
+                                 text=True, timeout=10).stdout.split("\n")
+        out["uncommitted_code"] = sorted(line[3:] for line in changed if line.strip())
+    except (OSError, subprocess.SubprocessError):
+        out["uncommitted_code"] = None
+    out["date_utc"] = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    out["machine"] = {"host": platform.node(), "platform": platform.platform(), "cpus": os.cpu_count(),
+                      "python": platform.python_version()}
+    checkpoint = next((v for k in ("checkpoint", "model") if isinstance(v := (config or {}).get(k), str)), None)
+    if checkpoint and Path(checkpoint).is_file():
+        out["checkpoint"] = checkpoint
+        out["checkpoint_sha256"] = sha256(checkpoint)
+    out["played_in_this_process"] = sorted(played)
+    if kept is not None:
+        this = {"commit": out["commit"], "date_utc": out["date_utc"]}
+        out["sequences"] = {str(i): dict(kept.get(i) or this) for i in sorted(set(kept) | set(played))}
+        for i in played:
+            out["sequences"][str(i)] = this
+    return out

@@ -11,7 +11,7 @@ import time
 
 from planning import cli
 from planning.atomic import write_json
-from planning.world.runner import results_provenance
+from planning.parallel import results_provenance
 from planning.domain.batched import BatchedModel
 from planning.domain.compiler import compile_domain
 
