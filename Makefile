@@ -29,4 +29,4 @@ smoke: $(STAMP)
 	$(PY) -m pytest -m smoke tests/smoke
 
 bench: $(STAMP)
-	$(PY) -m planning.domain.bench --layout three-room --out results/bench-three-room.json
+	$(PY) -m planning.external.simulator_bench --layout three-room --out results/bench-three-room.json

@@ -181,9 +181,9 @@ def benchmarks() -> list[str]:
     out += ["", "### Planner", ""]
     d = read("results/bench-planner-two-room.json")
     if d is None:
-        out += missing("results/bench-planner-two-room.json", "python -m planning.search.bench --layout two-room")
+        out += missing("results/bench-planner-two-room.json", "python -m oracles.planner_bench --layout two-room")
     else:
-        out += [f"`results/bench-planner-two-room.json` (`python -m planning.search.bench --layout two-room`): the "
+        out += [f"`results/bench-planner-two-room.json` (`python -m oracles.planner_bench --layout two-room`): the "
                 f"first {d['calls']} (state, task) pairs of sequence {d['sequence']}, costs equal: "
                 f"{d['equal_costs']}. Ours {num(d['ours_seconds'])} s against Fast Downward's "
                 f"{num(d['fast_downward_seconds'])} s: {d['ratio_total']}x in total, {d['ratio_per_call_median']}x "

@@ -90,7 +90,7 @@ def test_unsatisfiable_task_is_refused(folder):
 
 
 def test_command_line_exits_with_one_line(folder):
-    r = subprocess.run([sys.executable, "-m", "planning.domain.bench", "--domain", str(folder), "--layout", "attic"],
+    r = subprocess.run([sys.executable, "-m", "planning.external.simulator_bench", "--domain", str(folder), "--layout", "attic"],
                        capture_output=True, text=True)
     assert r.returncode == 2
     assert r.stderr.strip().count("\n") == 0 and "unknown layout 'attic'" in r.stderr

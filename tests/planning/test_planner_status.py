@@ -29,7 +29,7 @@ def test_internal_planner_limits_and_unsolvable(two_room, minimal):
 
 
 def test_oracle_planners_agree_on_a_canonical_sample(two_room):
-    from planning.search.bench import planner_pairs
+    from oracles.planner_bench import planner_pairs
     fd_oracle, ours = MyopicOracle("fast-downward", 120), MyopicOracle("internal", 120)
     for o in (fd_oracle, ours):
         o.start(two_room, None)

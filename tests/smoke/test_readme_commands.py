@@ -30,7 +30,7 @@ QUICK = {          # committed results are kept, or the command is cheap: must f
 }
 LONG = {           # must start cleanly
     "experiments.demo", "oracles.rollouts", "experiments.calibrate", "learning.gnn_dataset",
-    "learning.dqn", "experiments.minimal_example", "planning.domain.bench", "planning.search.bench",
+    "learning.dqn", "experiments.minimal_example", "planning.external.simulator_bench", "oracles.planner_bench",
     "oracles.labelling_bench", "learning.bench", "learning.bench_bn", "experiments.select_beta",
     "experiments.sweep",
 }

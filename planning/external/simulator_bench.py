@@ -7,7 +7,7 @@ SequentialSimulator enumerating applicable actions and applying each. All three
 must produce the same successors (checked); the ratios are what matter, since
 absolute times on a shared machine are noisy.
 
-    python -m planning.domain.bench --domain domains/restaurant --layout three-room --out FILE
+    python -m planning.external.simulator_bench --domain domains/restaurant --layout three-room --out FILE
 """
 from __future__ import annotations
 

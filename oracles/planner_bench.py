@@ -3,7 +3,7 @@
 On the (state, task) pairs the myopic oracle meets along a canonical sequence it
 times both planners, checks that every cost is equal, and prints the ratios.
 
-    python -m planning.search.bench --layout two-room [--calls 20] [--sequence 0] [--out FILE]
+    python -m oracles.planner_bench --layout two-room [--calls 20] [--sequence 0] [--out FILE]
 """
 from __future__ import annotations
 
