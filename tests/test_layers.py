@@ -39,12 +39,6 @@ def test_the_check_sees_a_violation(tmp_path):
 # Inside planning/, bottom to top: a module imports only from its own level or below.
 PLANNING_LEVELS = [{"__init__", "errors", "atomic", "cli", "parallel", "states", "value"}, {"domain"}, {"external"},
                    {"heuristics"}, {"search"}, {"world"}]
-# Known imports against that order, each a tool that runs what stands above it; a fix turns its case into a failure
-# (strict xfail) so that the entry goes.
-AGAINST_THE_ORDER = {
-    "planning/domain/check.py": "the domain check solves each start state with planning.search.optimal",
-    "planning/domain/from_problem.py": "wrapping a problem writes its sequences with planning.world.sequences",
-}
 
 
 def planning_level(name: str) -> int:
@@ -64,13 +58,7 @@ def imported_planning_parts(path: Path) -> set[str]:
     return out
 
 
-def planning_modules():
-    return [pytest.param(p, marks=pytest.mark.xfail(strict=True, reason=AGAINST_THE_ORDER[str(p.relative_to(ROOT))]))
-            if str(p.relative_to(ROOT)) in AGAINST_THE_ORDER else p
-            for p in sorted((ROOT / "planning").rglob("*.py"))]
-
-
-@pytest.mark.parametrize("path", planning_modules(), ids=lambda p: str(p.relative_to(ROOT)))
+@pytest.mark.parametrize("path", sorted((ROOT / "planning").rglob("*.py")), ids=lambda p: str(p.relative_to(ROOT)))
 def test_no_import_runs_up_inside_planning(path):
     part = path.relative_to(ROOT / "planning").parts[0].removesuffix(".py")
     own = planning_level(part)

@@ -1,4 +1,4 @@
-"""The domain checker (planning.domain.check): its summary on the restaurant, one error line (file and line)
+"""The domain checker (planning.world.domain_check): its summary on the restaurant, one error line (file and line)
 on each of ten broken copies of the minimal domain, and warnings, not errors, for the silent defaults."""
 import shutil
 import sys
@@ -7,20 +7,20 @@ from pathlib import Path
 import pytest
 
 from planning import cli
-from planning.domain import check
 from planning.domain.compiler import compile_domain
+from planning.world import domain_check
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = Path("tests/data/check")          # relative, as a user types it (the tests run from the root)
 
 
 def run_check(monkeypatch, capsys, *argv) -> tuple[int, list[str], list[str]]:
-    """(exit status, stdout lines, stderr lines) of `python -m planning.domain.check ARGV`, in process."""
+    """(exit status, stdout lines, stderr lines) of `python -m planning.world.domain_check ARGV`, in process."""
     monkeypatch.chdir(ROOT)
     monkeypatch.setattr(sys, "argv", ["check", *map(str, argv)])
     code = 0
     try:
-        cli.run(check.main)
+        cli.run(domain_check.main)
     except SystemExit as e:
         code = e.code
     out, err = capsys.readouterr()
@@ -50,7 +50,7 @@ def test_summary_on_the_restaurant(monkeypatch, capsys):
 def test_summary_object(monkeypatch):
     """The Checker's figures are the compiled model's."""
     monkeypatch.chdir(ROOT)
-    c = check.Checker("domains/minimal").run()
+    c = domain_check.Checker("domains/minimal").run()
     model = compile_domain("domains/minimal", "grid")
     (s,) = c.summaries
     assert (s.atoms, s.actions, s.tasks, s.types) == (model.n_atoms, model.n_actions, len(model.tasks), 2)
@@ -121,7 +121,7 @@ def test_search_per_layout_and_unknown_keys(monkeypatch, tmp_path):
     folder = copy_minimal(tmp_path, lambda t: t.replace("beta = 3.0", "beta = { other = 3.0 }")
                           .replace("[stream]", "[extras]\nx = 1\n\n[stream]\nmax_action = 64"))
     monkeypatch.chdir(ROOT)
-    c = check.Checker(folder, costs=False).run()
+    c = domain_check.Checker(folder, costs=False).run()
     assert [p.message for p in c.errors] == ["[search] beta has no entry for layout 'grid'"]
     warnings = [p.message for p in c.warnings]
     assert any(w.startswith("unknown table [extras]") for w in warnings)
@@ -165,7 +165,7 @@ def test_per_layout_overrides_are_checked_as_the_layout_reads_them(monkeypatch, 
     folder = copy_minimal(tmp_path, lambda t: t.replace(
         "\n[coordinates]", '\n[layouts.grid.tasks.deliver]\narguments = { "?r" = ["b"] }\n\n[coordinates]', 1))
     monkeypatch.chdir(ROOT)
-    c = check.Checker(folder).run()
+    c = domain_check.Checker(folder).run()
     assert c.problems == []
     (s,) = c.summaries
     assert s.tasks == 2 and {t: [n for n, _, _ in inst] for t, inst in s.costs.items()} == {

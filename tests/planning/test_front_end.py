@@ -17,13 +17,13 @@ from unified_planning.shortcuts import SequentialSimulator
 from planning import heuristics
 from planning.domain.batched import BatchedModel
 from planning.domain.compiler import compile_domain
-from planning.domain.from_problem import wrap
 from planning.errors import DomainError
 from planning.external import fast_downward as fd
 from planning.external.pddl_writer import domain_text, problem_goal_text, problem_text, task_goal_text
 from planning.external.up_bridge import UPStates, action_name, up_names, up_problem
 from planning.heuristics import choose
 from planning.search.optimal import optimal_plan, uniform_cost_search
+from planning.world.from_problem import wrap
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "front_end"
 ROOT = Path(__file__).resolve().parents[2]
@@ -310,7 +310,7 @@ def test_a_classical_blocksworld_wrapped_as_a_one_task_folder(tmp_path):
 
 
 def test_from_problem_on_the_command_line_and_a_foreign_folder_refused(tmp_path):
-    args = [sys.executable, "-m", "planning.domain.from_problem", str(DATA / "visitall" / "domain.pddl"),
+    args = [sys.executable, "-m", "planning.world.from_problem", str(DATA / "visitall" / "domain.pddl"),
             str(DATA / "visitall" / "grid4.pddl"), "--out", str(tmp_path / "va")]
     r = subprocess.run(args, capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert r.returncode == 0 and "layout grid4, one task 'goal()'" in r.stdout, r.stderr

@@ -26,7 +26,7 @@ START_SECONDS = 25
 
 QUICK = {          # committed results are kept, or the command is cheap: must finish with exit 0
     "planning.world.sequences", "oracles.myopic", "oracles.clairvoyant", "oracles.labelling",
-    "experiments.evaluate", "experiments.reproduce", "planning.domain.check",
+    "experiments.evaluate", "experiments.reproduce", "planning.world.domain_check",
 }
 LONG = {           # must start cleanly
     "experiments.demo", "oracles.rollouts", "experiments.calibrate", "learning.gnn_dataset",

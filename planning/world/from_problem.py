@@ -1,6 +1,6 @@
 """Wrap a classical PDDL domain and problem, as written, into a one-task domain folder.
 
-    python -m planning.domain.from_problem DOMAIN PROBLEM --out DIR [--layout NAME]
+    python -m planning.world.from_problem DOMAIN PROBLEM --out DIR [--layout NAME]
 
 DIR receives, with no hand edits:
   domain.pddl      the domain file, byte for byte
@@ -93,12 +93,12 @@ def wrap(domain: Path, problem: Path, out: Path, layout: str | None = None) -> P
     if problem_file in ("domain.pddl", "tasks.pddl"):
         raise DomainError("--layout", f"'{layout}' would overwrite {problem_file}")
     tasks = (f"; The problem {problem_name}'s goal as the one task ({problem.name}, wrapped by\n"
-             f"; python -m planning.domain.from_problem).\n"
+             f"; python -m planning.world.from_problem).\n"
              f"(define (domain {name}-tasks)\n"
              + (f"  {reqs}\n" if reqs else "")
              + f"  (:action {TASK}\n    :parameters ()\n    :precondition {goal}\n    :effect (and)))\n")
     toml = (f"# {domain.name} and {problem.name} wrapped as a one-task folder\n"
-            f"# (python -m planning.domain.from_problem).\n\n"
+            f"# (python -m planning.world.from_problem).\n\n"
             f"[layouts.{layout}]\nproblem = \"{problem_file}\"\n\n"
             f"[tasks.{TASK}]\nprobability = 1.0\n\n"
             f"[stream]\ntasks_per_reset = 1\n")
@@ -130,12 +130,12 @@ def main() -> None:
     p.add_argument("--out", default=None, type=cli.writable_folder, help="the domain folder to write")
     p.add_argument("--layout", default=None, help="the layout's name (default: the problem file's name)")
     args = p.parse_args()
-    usage = "python -m planning.domain.from_problem DOMAIN PROBLEM --out DIR"
+    usage = "python -m planning.world.from_problem DOMAIN PROBLEM --out DIR"
     what = f" as layout '{args.layout}'" if args.layout else ""
     if args.problem is None:
-        raise DomainError("planning.domain.from_problem", f"no DOMAIN and PROBLEM files to wrap{what} ({usage})")
+        raise DomainError("planning.world.from_problem", f"no DOMAIN and PROBLEM files to wrap{what} ({usage})")
     if args.out is None:
-        raise DomainError("planning.domain.from_problem", f"no --out folder to write{what} into ({usage})")
+        raise DomainError("planning.world.from_problem", f"no --out folder to write{what} into ({usage})")
     out = wrap(Path(args.domain), Path(args.problem), Path(args.out), args.layout)
     layout = args.layout or layout_name(Path(args.problem))
     print(f"wrote {out}: layout {layout}, one task '{TASK}()' (the problem's goal)")

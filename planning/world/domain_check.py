@@ -1,6 +1,6 @@
 """Check a domain folder before any tool runs on it: every layout parsed, grounded and compiled.
 
-    python -m planning.domain.check DIR [--layout NAME] [--no-costs] [--time-limit SECONDS]
+    python -m planning.world.domain_check DIR [--layout NAME] [--no-costs] [--time-limit SECONDS]
 
 What it checks, beyond what compiling a layout refuses (a malformed file, an
 unknown object, a task type without a schema, probabilities that do not sum to
