@@ -382,15 +382,15 @@ def test_reproduce_stops_at_a_cut_short_reference(tmp_path, monkeypatch, capsys)
 
 
 def test_the_report_reads_no_cut_short_file_as_missing(tmp_path, monkeypatch):
-    from experiments import report_reference
-    from experiments.report_specs import training_logs
+    from experiments.report import reference
+    from experiments.report.specs import training_logs
 
     monkeypatch.chdir(tmp_path)
     (tmp_path / "results").mkdir()
-    assert report_reference.read("results/bench-three-room.json") is None          # missing: not run
+    assert reference.read("results/bench-three-room.json") is None          # missing: not run
     Path("results/bench-three-room.json").write_text('{"layout": "three')
     with pytest.raises(DomainError, match=r"^results/bench-three-room.json: corrupt results file"):
-        report_reference.read("results/bench-three-room.json")
+        reference.read("results/bench-three-room.json")
     Path("results/training-myopic-two-room-seed4.json").write_text('{"curve": [')
     with pytest.raises(DomainError, match=r"^results/training-myopic-two-room-seed4.json: corrupt training results"):
         training_logs("two-room", "myopic")

@@ -9,11 +9,12 @@ from pathlib import Path
 import pytest
 from scipy import stats as sps
 
-from experiments import report_figures as figs
 from experiments import stats
-from experiments.report_data import Context, load_run
-from experiments.report_specs import Row, Run
-from experiments.reproduce import needs_run, report, run_missing
+from experiments.report import figures as figs
+from experiments.report.data import Context, load_run
+from experiments.report.specs import Row, Run
+from experiments.report.thesis import report
+from experiments.reproduce import needs_run, run_missing
 from planning.world.sequences import Sequence
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -204,7 +205,7 @@ def test_report_only_from_the_committed_results(tmp_path, monkeypatch):
 def test_training_curves_leave_out_runs_in_progress(tmp_path, monkeypatch):
     """Figure A.1 draws a seed's run once it is exported (finished), not while it trains; from the curve
     its results file keeps where it keeps one."""
-    from experiments.report_specs import training_logs
+    from experiments.report.specs import training_logs
 
     monkeypatch.chdir(tmp_path)
     (tmp_path / "results").mkdir()
@@ -219,7 +220,7 @@ def test_training_curves_leave_out_runs_in_progress(tmp_path, monkeypatch):
 def test_a_figure_from_training_logs_is_kept_where_the_logs_are_not(tmp_path):
     """runs/ is not committed: a fresh checkout lacking some of a figure's logs keeps the committed PNG rather
     than redrawing it from fewer runs; with every log here, or no PNG yet, it is drawn."""
-    from experiments.reproduce import from_logs
+    from experiments.report.thesis import from_logs
 
     png, log = tmp_path / "fig.png", tmp_path / "metrics.jsonl"
     drawn = []
@@ -240,7 +241,7 @@ def test_a_figure_from_training_logs_is_kept_where_the_logs_are_not(tmp_path):
 def test_a_bound_run_is_reported_beside_its_twin(tmp_path, monkeypatch):
     """The target-bound table pairs each bound run with the thesis-target run of its layout, horizon and seed,
     and says 'not run' for an evaluation not made."""
-    from experiments.report_reference import target_bound_runs
+    from experiments.report.reference import target_bound_runs
 
     monkeypatch.chdir(tmp_path)
     (tmp_path / "results").mkdir()
@@ -256,3 +257,18 @@ def test_a_bound_run_is_reported_beside_its_twin(tmp_path, monkeypatch):
     rows = [line for line in target_bound_runs() if line.startswith("| three-room")]
     assert rows == ["| three-room | myopic | 4 | none | 50,000,000,000.0 | 0.50 | 14.8% | 10,333.0 | 1,467.2 | −3.5% |",
                     "| three-room | myopic | 4 | return | 42.4 | 0.50 | not run | — | not run | — |"]
+
+
+def test_both_reports_open_and_close_with_their_provenance():
+    """The header names the commit, the command as given, the date and the machine; the closing sections list
+    the runs not yet made and one provenance row per results file (none here: the table's header alone)."""
+    from experiments.report import provenance
+
+    head = provenance.header("python -m experiments.reproduce --report-only")
+    assert [line.split(":")[0] for line in head] == ["- commit", "- command", "- date", "- machine"]
+    assert head[1] == "- command: `python -m experiments.reproduce --report-only`"
+    assert provenance.closing({}) == [
+        "## Runs not yet made", "", "Every run the tables expect has a results file.", "",
+        "## Provenance of the results files", "",
+        "| results file | use | failed-task accounting | commit | date | machine | command | configuration | "
+        "checkpoint sha256 | flags (bold) and notes |", "|" + "---|" * 10, ""]

@@ -9,7 +9,8 @@ from pathlib import Path
 import pytest
 
 from experiments import reproduce
-from experiments.report_data import Context, load_rows
+from experiments.report import domain
+from experiments.report.data import Context, load_rows
 from planning import cli
 from planning.atomic import write_json
 from planning.domain.compiler import compile_domain
@@ -65,7 +66,7 @@ def test_a_played_row_is_reported(minimal_copy, monkeypatch):
     for rec in generate(model):
         write_json(sequence_dir(model) / f"seq-{rec['id']:02d}.json", rec)
     ctx = Context("minimal")
-    row = next(r for r in reproduce.domain_rows(ctx, "grid") if r.key == "myopic-oracle-internal")
+    row = next(r for r in domain.rows(ctx, "grid") if r.key == "myopic-oracle-internal")
     assert reproduce.run_missing([row], ctx, ids=[0, 1], progress=False) == [
         "results/minimal-myopic-oracle-internal-grid.json"]
     data = json.loads(Path("results/minimal-myopic-oracle-internal-grid.json").read_text())

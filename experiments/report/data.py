@@ -23,7 +23,7 @@ from functools import lru_cache
 from pathlib import Path
 
 from experiments.registry import AGENTS, agent_class
-from experiments.report_specs import Row, Run
+from experiments.report.specs import Row, Run
 from planning import atomic
 from planning.atomic import read_json
 from planning.errors import DomainError
@@ -274,3 +274,13 @@ def read_jsonl(path) -> list[dict]:
     from learning.dqn import read_metrics
 
     return read_metrics(path, strict=False)[0] if Path(path).is_file() else []
+
+
+def curve(log: str) -> list[dict]:
+    """A training run's logged rows: the curve its results file keeps (`learning.export`), or its metrics.jsonl."""
+    if log.endswith(".json"):
+        data = read_json(log, "training results file")
+        if not isinstance(data, dict) or not isinstance(data.get("curve"), list):
+            raise DomainError(log, "a training results file without its curve (learning.export writes it)")
+        return data["curve"]
+    return [r for r in read_jsonl(log) if "step" in r]

@@ -1,4 +1,4 @@
-"""The thesis's tables and statistics as markdown, from the loaded rows (`experiments.report_data`).
+"""The thesis's tables and statistics as markdown, from the loaded rows (`experiments.report.data`).
 
 Every function takes `results[layout][row key] -> RowResult` and returns
 markdown lines. A cell whose runs are missing says why ("not run", "in
@@ -10,13 +10,18 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from experiments import stats
-from experiments.report_data import ALL, DEVELOPMENT, HELD_OUT, RowResult, improvement
-from experiments.report_specs import (ABLATION, AGENTS, COMPARISONS, LEARNED, TABLE_5_2, THESIS, THESIS_HELD_OUT,
-                                      THESIS_PROTOCOL,
-                                      THESIS_SHARE_STATED, THESIS_STATS)
+from experiments.report.data import ALL, DEVELOPMENT, HELD_OUT, RowResult, curve, improvement
+from experiments.report.specs import (ABLATION, AGENTS, COMPARISONS, LEARNED, TABLE_5_2, THESIS, THESIS_DISCOUNT,
+                                      THESIS_HELD_OUT, THESIS_PROTOCOL, THESIS_SHARE_STATED, THESIS_STATS,
+                                      discount_runs)
 
 MISSING = "[commands](#runs-not-yet-made)"
+SHARE_TEXT = ("`(C_myopic − C) / (C_myopic − C_clairvoyant-K)`: the part of the clairvoyant oracle's saving an agent "
+              "recovers without seeing the future.")
+"""What the share of the clairvoyant saving is, as both reports introduce their table of it."""
 
 
 # ---- formatting -----------------------------------------------------------------------------
@@ -259,6 +264,29 @@ def _thesis_stats(th: dict) -> str:
         parts.append(f"t({th['df']}) = {th['t']}, p = {th['welch_p']}, CI {pct(th['ci'][0], 1, False)}–"
                      f"{pct(th['ci'][1], 1, False)}")
     return "; ".join(parts) or "—"
+
+
+# ---- Table A.5 ------------------------------------------------------------------------------
+def discount_table() -> list[str]:
+    """Table A.5 beside the thesis's: each discount's training run (`specs.discount_runs`), from its log."""
+    body = []
+    for gamma, metrics, command in discount_runs():
+        rows = curve(metrics)
+        jar, succ, q = THESIS_DISCOUNT[gamma]
+        thesis = [pct(jar, 1, False), f"{succ:.3f}", f"{q:.1f}"]
+        if not rows:
+            body.append([f"{gamma:.2f}", f"not run (`{command}`)", "—", "—", *thesis])
+            continue
+        share = [r["action_share"].get("refill-water", 0.0) for r in rows if isinstance(r.get("action_share"), dict)]
+        mean = lambda xs: float(np.nanmean(xs)) if xs else float("nan")
+        body.append([f"{gamma:.2f}", f"{mean([r['success_rate'] for r in rows]):.3f} ({rows[-1]['step']:,} steps)",
+                     f"{mean([r['selected_q'] for r in rows]):.1f}", pct(mean(share), 2, False), *thesis])
+    return table(["γ", "training success (mean over the run)", "mean selected Q",
+                 "refill-water share of actions", "thesis jar share of water deliveries",
+                 "thesis success", "thesis mean Q"], body) + [
+        "", "Three-room anticipatory, seed 0. `learning.dqn` logs the share of refill-water among all actions, not "
+            "the jar's share of water deliveries the thesis tabulates (Figure A.2 plots the former), so the two "
+            "columns are not the same measure. `--discount-sweep` trains these runs (each 500k steps)."]
 
 
 # ---- what is missing ------------------------------------------------------------------------

@@ -5,7 +5,7 @@ runs, one per seed where the agent has seeds (each: the registered agent, its
 options, the results file, the checkpoint it needs and the command that trains
 that checkpoint), and the thesis's figures. This module is the one place that
 names files and commands; `experiments.reproduce` runs what is missing and
-reads what exists, `experiments.report_tables` renders them.
+reads what exists, `experiments.report.tables` renders them.
 
 Seeds are the thesis's: 4 checkpoint seeds per learned agent on the two-room
 restaurant and 5 on the three-room (Appendix A.2), GNN seeds 0, 4, 8 and 16

@@ -10,9 +10,9 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from experiments.report_specs import LAYOUTS, THESIS, THESIS_MINIMAL
-from experiments.report_data import mean_std
-from experiments.report_tables import num, pct, table
+from experiments.report.specs import LAYOUTS, THESIS, THESIS_MINIMAL
+from experiments.report.data import mean_std
+from experiments.report.tables import num, pct, table
 
 
 def read(path) -> dict | None:
