@@ -4,9 +4,10 @@ import random
 import numpy as np
 import pytest
 
-from planning.search.bellman_novelty import Terminal, bellman_novelty_search, select_terminal
+from planning.search.bellman_novelty import bellman_novelty_search
 from planning.search.novelty import NoveltyTables, atom_indices
 from planning.search.optimal import uniform_cost_search
+from planning.search.terminals import Terminal, select_terminal
 from planning.value import ZeroValue
 
 
@@ -259,6 +260,23 @@ def test_reference_is_admitted_first_and_always_eligible():
     assert r.stats.c_myo == 2 and r.plan == [2] and r.stats.source == "search" and r.stats.eligible == 1
 
 
+def test_terminals_carry_their_fields_and_only_the_eligible_are_scored():
+    s0, a, good, cheap = bits(0), bits(1), bits(2), bits(3)
+    edges = {s0: [(1, a, 5), (2, cheap, 2)], a: [(3, good, 5)]}
+    task = GoalTask([good, cheap])
+    value = TableValue(v={good: 3.0, cheap: 1.0}, gamma=0.5)
+    # the reference is cut where the task first holds (action 9 is never replayed): G = -5 - 0.5 * 5; the
+    # search's own way to `good` has the same G at the same depth, so it is not admitted again
+    r = bellman_novelty_search(GraphModel(edges, 4), s0, task, value, budget=100, beta=1.0, reference_plan=[1, 3, 9])
+    assert r.terminals == [Terminal("reference", 10, 2, -7.5, good, 3.0), Terminal("search", 2, 1, -2.0, cheap, 1.0)]
+    assert r.plan == [1, 3] and (r.stats.source, r.stats.cost, r.stats.depth) == ("reference", 10, 2)
+    # without it C_myo = 2: `good` is not eligible at β = 1, so it is not scored
+    value = TableValue(v={good: 3.0, cheap: 1.0}, gamma=0.5)
+    r = bellman_novelty_search(GraphModel(edges, 4), s0, task, value, budget=100, beta=1.0)
+    assert r.terminals == [Terminal("search", 2, 1, -2.0, cheap, 1.0), Terminal("search", 10, 2, -7.5, good, None)]
+    assert value.v_batches == [[cheap]] and r.plan == [2] and r.stats.eligible == 1
+
+
 def test_terminals_are_scored_after_consumption_in_one_batch():
     s0, x, y, x_after, y_after = bits(0), bits(1), bits(2), bits(3), bits(4)
     edges = {s0: [(1, x, 1), (2, y, 1)]}
@@ -341,7 +359,8 @@ def test_same_inputs_same_plan_with_the_q_network(two_room):
     runs = [bellman_novelty_search(m, s, task, vf, budget=800, beta=1.25, reference_plan=ref) for _ in range(2)]
     a, b = runs
     assert a.plan == b.plan and a.stats.expansions == b.stats.expansions == 800
-    assert [t[:4] for t in a.terminals] == [t[:4] for t in b.terminals]
+    head = lambda r: [(t.source, t.cost, t.depth, t.G) for t in r.terminals]
+    assert head(a) == head(b)
     end, cost = replay(m, s, a.plan)
     assert task.satisfied(end) and cost == a.stats.cost <= 1.25 * a.stats.c_myo
     # without prefetching the same nodes are expanded and the same terminal chosen

@@ -14,14 +14,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import planning.search.bellman_novelty as bn
 from planning.domain.batched import BatchedModel
+from planning.search import bn_kernel
 from planning.search.bellman_novelty import bellman_novelty_search
 from planning.search.bellman_novelty_reference import bellman_novelty_search_reference
 from planning.search.optimal import optimal_plan, uniform_cost_search
 from planning.value import ZeroValue
 
-needs_kernel = pytest.mark.skipif(bn._lib() is None, reason="no C compiler: the Python loop runs (it is the reference)")
+needs_kernel = pytest.mark.skipif(bn_kernel.lib() is None,
+                                  reason="no C compiler: the Python loop runs (it is the reference)")
 
 
 def _checkpoint(layout: str) -> Path:
@@ -45,11 +46,11 @@ def values(restaurant):
 def test_compiled_successors_are_model_successors(restaurant):
     m = restaurant
     task = m.tasks[0]
-    k = bn._kernel_for(m, task, m.init)
+    k = bn_kernel.kernel_for(m, task, m.init)
     assert k is not None
     for s in m.random_walk_states(300, 5, walk=30):
         want = [(a, t, c, bool(task.satisfied(t))) for a, t, c in m.successors(s)]
-        assert k.successors(bn._lib(), s, task) == want
+        assert k.successors(bn_kernel.lib(), s, task) == want
 
 
 def _same(a, b):
@@ -104,7 +105,7 @@ def test_kernel_switches(two_room, monkeypatch):
     s, task = m.reset_state(3), m.tasks.get("wash(bowls)")
     with pytest.raises(ValueError):
         bellman_novelty_search(m, s, task, ZeroValue(1.0), budget=10, beta=1.0, kernel="fortran")
-    monkeypatch.setattr(bn, "_LIB", False)                 # as with ANTICIPATORY_BN_NATIVE=0 or no compiler
+    monkeypatch.setattr(bn_kernel, "_LIB", False)          # as with ANTICIPATORY_BN_NATIVE=0 or no compiler
     with pytest.raises(RuntimeError):
         bellman_novelty_search(m, s, task, ZeroValue(1.0), budget=10, beta=1.0, kernel="c")
     r = bellman_novelty_search(m, s, task, ZeroValue(1.0), budget=200, beta=1.0)       # the Python loop
