@@ -27,7 +27,7 @@ import time
 
 from tqdm import tqdm
 
-from learning.guided import ValueGuidedPlanner
+from learning.agents.guided import ValueGuidedPlanner
 from learning.values import HELP
 from oracles.myopic import MyopicOracle
 from planning import cli

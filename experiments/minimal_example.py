@@ -17,8 +17,8 @@ from dataclasses import asdict
 
 import numpy as np
 
-from learning.dqn import Config, domain_defaults, train_run
-from learning.qnet import ValueFunction
+from learning.q.training import Config, domain_defaults, train_run
+from learning.q.value import ValueFunction
 from learning.reward import step_reward
 from planning import cli
 from planning.atomic import write_json

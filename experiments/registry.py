@@ -21,10 +21,10 @@ AGENTS = {
     "myopic-oracle": ("oracles.myopic", "MyopicOracle"),
     "clairvoyant": ("oracles.clairvoyant", "ClairvoyantOracle"),
     "random": ("experiments.random_policy", "RandomPolicy"),
-    "rl-greedy": ("learning.greedy", "GreedyValuePolicy"),
-    "rl-guided": ("learning.guided", "ValueGuidedPlanner"),
-    "gnn-native": ("learning.gnn_native", "GNNNativePlanner"),
-    "gnn-guided": ("learning.gnn_value", "GNNGuidedPlanner"),
+    "rl-greedy": ("learning.agents.greedy", "GreedyValuePolicy"),
+    "rl-guided": ("learning.agents.guided", "ValueGuidedPlanner"),
+    "gnn-native": ("learning.agents.gnn_native", "GNNNativePlanner"),
+    "gnn-guided": ("learning.agents.guided", "GNNGuidedPlanner"),
 }
 
 
@@ -73,7 +73,7 @@ def agent_options(name_or_cls, args=None, **values):
 
 def build(name_or_cls, options, model):
     """The agent built for the compiled layout from its options (its `from_args`). An agent that plays a
-    reference planner (a `reference_agent` option, `learning.guided`) is handed that planner, built here:
+    reference planner (a `reference_agent` option, `learning.agents.guided`) is handed that planner, built here:
     learning/ may not import this registry, which knows every agent."""
     cls = agent_class(name_or_cls) if isinstance(name_or_cls, str) else name_or_cls
     spec = getattr(options, "reference_agent", None)

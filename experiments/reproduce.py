@@ -88,7 +88,7 @@ def stamp(run, via: str) -> None:
 
 def train_discount_sweep(progress: bool = True) -> None:
     """Train the Table A.5 runs that have not reached their last step (learning.dqn resumes its last.pt)."""
-    from learning.dqn import Config
+    from learning.q.training import Config
 
     for gamma, metrics, command in discount_runs():
         rows = curve(metrics)

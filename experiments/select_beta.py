@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from learning.guided import ValueGuidedPlanner
+from learning.agents.guided import ValueGuidedPlanner
 from oracles.command import reference_path
 from planning import cli
 from planning.atomic import write_json

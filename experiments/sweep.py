@@ -99,17 +99,17 @@ def _field_kind(f) -> type:
 
 # ---- training runs -------------------------------------------------------------------------
 def item_config(item: dict):
-    """A training item's settings, built and checked as learning.dqn builds its own (`learning.dqn.make_config`)."""
-    from learning.dqn import make_config
+    """A training item's settings, built and checked as learning.dqn builds its own (`learning.q.training.make_config`)."""
+    from learning.q.training import make_config
 
     return make_config(item["domain"], item["layout"], item["horizon"], seed=item["seed"], out=item["out"],
                        **item["settings"])
 
 
 def train_item(item: dict) -> dict:
-    """One learning.dqn run to the end, started or resumed as learning.dqn does (`learning.dqn.train_run`:
+    """One learning.dqn run to the end, started or resumed as learning.dqn does (`learning.q.training.train_run`:
     the run folder locked, metrics rows past the resumed checkpoint dropped); its outcome."""
-    from learning.dqn import last_row, train_run
+    from learning.q.training import last_row, train_run
 
     cfg = item_config(item)
     trainer = train_run(cfg, progress=False)
@@ -136,7 +136,7 @@ def train_items(args, grid: dict, settings: dict) -> tuple[list, list, list]:
     """(points, run names, work items) of a training grid, every point's settings checked as learning.dqn
     checks its own and every name made from them checked to name a file in its folder: a bad value
     (`--eps-schedule ../../x`) stops with a one-line error before anything is written."""
-    from learning.dqn import file_in, file_name, run_name
+    from learning.q.training import file_in, file_name, run_name
     from learning.export import rl_name
 
     axes = list(grid)
@@ -243,7 +243,7 @@ def guided_sweep(args, layout: str, out: Path) -> tuple[dict, float]:
 
 def main() -> None:
     one_thread()                  # as in the workers: a serial sweep computes what a parallel one does
-    from learning.dqn import Config, file_in, file_name
+    from learning.q.training import Config, file_in, file_name
 
     p = cli.parser(__doc__.splitlines()[0], sequences=True)
     p.add_argument("--kind", choices=("train", "guided"), default="train", help="what to sweep (default: %(default)s)")

@@ -1,1 +1,1 @@
-"""Learned values: observation and factored-action encodings, the Q-network and its trainer, the GNN baseline."""
+"""Learned values and the agents that use them: shared encodings, reward and safe files at the top, then q/ (the Q-network and its trainer), gnn/ (the one-task GNN baseline), values/ (the value registry, the exact value, the ranking) and agents/; the commands dqn, gnn_dataset, gnn_train and export above them."""

@@ -44,7 +44,7 @@ run's, or a file that is no export, is a one-line error naming the file and what
 unless --force. The default names are made of values read from the run's files (its
 settings' horizon, layout and seed, a GNN's layout, a dataset's layout), each checked to
 name a file in its folder. A run still being trained is refused: its trainer holds the run
-folder's lock (`learning.dqn.train_run`), and the export holds it in turn, so no trainer
+folder's lock (`learning.q.training.train_run`), and the export holds it in turn, so no trainer
 starts on the run mid-export. A run stopped before its configured step count is exported
 as it is, with a one-line note on stderr.
 """
@@ -66,9 +66,10 @@ from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 from planning.parallel import results_provenance
 
-from learning.dqn import LEGACY, Config, bound_suffix, file_in, file_name, read_metrics
 from learning.plain import full_precision, to_half
-from learning.qnet import DOMAIN_KEYS, read_checkpoint, save_checkpoint, value_function
+from learning.q.checkpoints import DOMAIN_KEYS, read_checkpoint, save_checkpoint
+from learning.q.training import LEGACY, Config, bound_suffix, file_in, file_name, read_metrics
+from learning.q.value import value_function
 
 MILESTONES = (50_000, 100_000, 250_000, 500_000)
 PRECISION = "float16"
@@ -210,7 +211,7 @@ def dataset_figures(folder: Path) -> dict:
 
 def is_gnn_run(run: Path) -> bool:
     """True for a learning.gnn_train run folder, False for a learning.dqn one (by its best.pt)."""
-    from learning.gnn_model import is_gnn_checkpoint
+    from learning.gnn.model import is_gnn_checkpoint
 
     return is_gnn_checkpoint(run / "best.pt")
 
@@ -220,7 +221,7 @@ def default_names(run: Path, gnn: bool) -> tuple[str, str]:
     best.pt records, each checked to name a file (a seed of '../x' writes nowhere else)."""
     best = run / "best.pt"
     if gnn:
-        from learning.gnn_model import read_gnn_checkpoint
+        from learning.gnn.model import read_gnn_checkpoint
 
         p = read_gnn_checkpoint(best)
         cfg = p.get("config", {})
@@ -347,7 +348,7 @@ def _read_json(path: Path) -> dict:
 @contextmanager
 def exporting(folder: Path, what: str = "run"):
     """Held while a folder is exported: its OutputLock. A run still being trained (its trainer holds the
-    lock, `learning.dqn.train_run`) is refused with a one-line error, and no trainer starts on it
+    lock, `learning.q.training.train_run`) is refused with a one-line error, and no trainer starts on it
     mid-export; a folder this process may not write in has no trainer there and is read unlocked."""
     if not folder.is_dir():
         raise DomainError(folder, f"no such {what} folder")
@@ -386,7 +387,7 @@ def export_gnn(run: Path, out: Path, figures: Path | None, force: bool = False,
     """The compact GNN checkpoint and the run's summary.json (with where it came from); everything checked
     before anything is written (see the module's docstring). Returns (compact payload, figures); the files
     written go on `written` (those already this export are kept as they are)."""
-    from learning.gnn_model import read_gnn_checkpoint, save_gnn_checkpoint
+    from learning.gnn.model import read_gnn_checkpoint, save_gnn_checkpoint
 
     with exporting(run):
         best = run / "best.pt"

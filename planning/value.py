@@ -12,7 +12,7 @@ a `Task` of its distribution. A value may also offer a compiled q_max
 (`native_q_max`, below), which the compiled Bellman–Novelty search calls from C
 instead of `q_max`. Implementations, one row each in the value registry
 (`learning.values`, which also builds them from a command line's `--value`):
-the Q-network's value (`learning.qnet.ValueFunction`), the GNN estimate as
+the Q-network's value (`learning.q.value.ValueFunction`), the GNN estimate as
 -C_AP, an exact value by value iteration on small domains, and `ZeroValue`
 below, which makes the Bellman–Novelty search myopic: every terminal ties on
 V_AP, so the cheapest wins.

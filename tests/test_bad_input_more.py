@@ -69,7 +69,7 @@ def three_room_data(tmp_path, three_room) -> Path:
 
 # ---- 1. a GNN model or dataset of another layout ------------------------------------------------------
 def test_a_gnn_model_of_another_layout_is_refused_by_its_value(three_room):
-    from learning.gnn_value import GNNValue
+    from learning.gnn.value import GNNValue
 
     with pytest.raises(DomainError) as e:
         GNNValue(TWO_ROOM_GNN, three_room)
@@ -87,7 +87,8 @@ def test_gnn_agents_refuse_a_model_of_another_layout(three_room, tmp_path, capsy
 
 
 def test_value_rank_and_gnn_bench_refuse_a_model_of_another_layout(three_room, tmp_path, capsys):
-    from learning import gnn_bench, value_rank
+    from learning.gnn import bench as gnn_bench
+    from learning.values import rank as value_rank
 
     data = three_room_data(tmp_path, three_room)
     with pytest.raises(DomainError, match="a GNN model of restaurant two-room, not of restaurant three-room"):
@@ -103,7 +104,7 @@ def test_value_rank_and_gnn_bench_refuse_a_model_of_another_layout(three_room, t
 
 
 def test_a_dataset_of_another_domain_is_refused(two_room, tmp_path):
-    from learning import value_rank
+    from learning.values import rank as value_rank
 
     data = tmp_path / "data"
     data.mkdir()
@@ -124,10 +125,10 @@ def test_gnn_train_checks_the_dataset_against_its_layout(minimal, tmp_path, caps
 
 
 def test_new_datasets_and_models_record_the_domain_identity(minimal, tmp_path):
-    from learning.gnn_dataset import save_dataset
-    from learning.gnn_model import GNNCostModel
-    from learning.gnn_train import TrainConfig, _payload
-    from learning.graph import GraphEncoder
+    from learning.gnn.dataset import save_dataset
+    from learning.gnn.model import GNNCostModel
+    from learning.gnn.training import TrainConfig, _payload
+    from learning.gnn.graph import GraphEncoder
 
     states = list(dict.fromkeys(minimal.random_walk_states(4, seed=0)))
     labels = {s: (10.0, [10] * len(minimal.tasks), 0.0) for s in states}
@@ -142,9 +143,9 @@ def test_new_datasets_and_models_record_the_domain_identity(minimal, tmp_path):
 
 
 def test_a_model_of_other_domain_content_loads_with_a_one_line_warning(minimal, capsys):
-    from learning.gnn_model import GNNCostModel
-    from learning.gnn_value import GNNValue
-    from learning.graph import GraphEncoder
+    from learning.gnn.model import GNNCostModel
+    from learning.gnn.value import GNNValue
+    from learning.gnn.graph import GraphEncoder
 
     enc = GraphEncoder(minimal, embed=zero_embed)
     net = GNNCostModel(enc.num_features, width=4, layers=1).eval()
@@ -160,7 +161,7 @@ def test_a_model_of_other_domain_content_loads_with_a_one_line_warning(minimal, 
 
 
 def test_the_committed_gnn_models_load_on_their_own_layout(two_room):
-    from learning.gnn_model import check_made_for, read_gnn_checkpoint
+    from learning.gnn.model import check_made_for, read_gnn_checkpoint
 
     payload = read_gnn_checkpoint(TWO_ROOM_GNN)
     assert "domain_sha256" not in payload            # made before models recorded it: taken as it is
@@ -169,14 +170,14 @@ def test_the_committed_gnn_models_load_on_their_own_layout(two_room):
 
 # ---- 2. a dataset folder that would be replaced silently -----------------------------------------------
 def tiny_cfg(**kw):
-    from learning.gnn_dataset import DatasetConfig
+    from learning.gnn.dataset import DatasetConfig
 
     return DatasetConfig(**{"layout": "grid", "domain": MINIMAL, "n_states": 4, "workers": 1, "heuristic": "hmax",
                             **kw})
 
 
 def test_a_finished_dataset_is_not_replaced_by_another_unless_forced(tmp_path, monkeypatch):
-    from learning.gnn_dataset import build
+    from learning.gnn.dataset import build
 
     monkeypatch.chdir(tmp_path)                       # the rollout cache goes to runs/ here
     out = tmp_path / "data"
@@ -195,7 +196,7 @@ def test_a_finished_dataset_is_not_replaced_by_another_unless_forced(tmp_path, m
 
 
 def test_a_finished_dataset_of_another_layout_or_content_is_refused(minimal, tmp_path):
-    from learning.gnn_dataset import build
+    from learning.gnn.dataset import build
 
     out = tmp_path / "data"
     out.mkdir()
@@ -212,7 +213,8 @@ def test_a_finished_dataset_of_another_layout_or_content_is_refused(minimal, tmp
 def test_the_dataset_command_has_a_default_folder(minimal, tmp_path, monkeypatch, capsys):
     """`--augmented` without --out writes runs/gnn/DOMAIN-LAYOUT-augmented (here: a finished one of another
     layout is there, so the command stops before any work, naming it)."""
-    from learning.gnn_dataset import default_out, main
+    from learning.gnn.dataset import default_out
+    from learning.gnn_dataset import main
 
     assert default_out(compile_domain(RESTAURANT, "two-room"), True) == Path("runs/gnn/restaurant-two-room-augmented")
     monkeypatch.chdir(tmp_path)
@@ -225,7 +227,7 @@ def test_the_dataset_command_has_a_default_folder(minimal, tmp_path, monkeypatch
 
 
 def test_a_dataset_folder_has_one_writer(tmp_path):
-    from learning.gnn_dataset import build
+    from learning.gnn.dataset import build
 
     out = tmp_path / "data"
     out.mkdir()
@@ -276,10 +278,11 @@ def test_an_unknown_key_of_a_tasks_table(tmp_path):
 
 
 def test_a_cut_short_dataset_meta_is_one_line(minimal, tmp_path, capsys):
-    from learning import gnn_bench, value_rank
-    from learning.gnn_dataset import load_dataset, save_dataset
+    from learning.gnn import bench as gnn_bench
+    from learning.values import rank as value_rank
+    from learning.gnn.dataset import load_dataset, save_dataset
     from learning.gnn_train import main
-    from learning.graph import GraphEncoder
+    from learning.gnn.graph import GraphEncoder
 
     states = list(dict.fromkeys(minimal.random_walk_states(4, seed=0)))
     save_dataset(tmp_path, minimal, states, {s: (1.0, [1] * len(minimal.tasks), 0.0) for s in states},
@@ -308,7 +311,7 @@ def test_a_cut_short_dataset_meta_is_one_line(minimal, tmp_path, capsys):
     ('{"labels": {"x": [1, [1], 0]}}', "corrupt checkpoint: the label of state x is"),
 ])
 def test_a_malformed_label_checkpoint_is_one_line(minimal, tmp_path, text, expect):
-    from learning.gnn_dataset import known_labels, label_states
+    from learning.gnn.dataset import known_labels, label_states
 
     ck = tmp_path / "labels.partial.json"
     ck.write_text(text)
@@ -491,7 +494,7 @@ def test_a_labels_file_is_not_replaced_by_another_unless_forced(minimal, tmp_pat
 
 
 def test_a_label_checkpoint_of_other_content_is_labelled_again(minimal, tmp_path):
-    from learning.gnn_dataset import label_states
+    from learning.gnn.dataset import label_states
 
     ck = tmp_path / "labels.partial.json"
     s = minimal.init
@@ -504,7 +507,7 @@ def test_a_label_checkpoint_of_other_content_is_labelled_again(minimal, tmp_path
 
 
 def test_reused_labels_must_be_of_this_layout_and_content(minimal, tmp_path):
-    from learning.gnn_dataset import known_labels
+    from learning.gnn.dataset import known_labels
 
     other = tmp_path / "other"
     other.mkdir()
@@ -523,7 +526,7 @@ def test_reused_labels_must_be_of_this_layout_and_content(minimal, tmp_path):
 
 
 def test_a_prepared_stream_cache_of_another_stream_or_content_is_planned_again(minimal, tmp_path):
-    from learning.gnn_dataset import cached_plans
+    from learning.gnn.dataset import cached_plans
 
     header = {"layout": "grid", "seed": 1, **identity(minimal), "min_clause_cost": 200, "plan_time_limit": 120.0}
     cache = tmp_path / "prepared-rollout-0.json"

@@ -22,8 +22,8 @@ def entry_points() -> list[str]:
 
 
 # Entry points whose layout is their input's (a run folder, a checkpoint): a missing input instead.
-FROM_INPUT = {"learning.export": ["attic"], "learning.gnn_bench": ["--model", "attic.pt", "--data", "attic"],
-              "learning.value_rank": ["--value", "attic.pt", "--data", "attic"]}
+FROM_INPUT = {"learning.export": ["attic"], "learning.gnn.bench": ["--model", "attic.pt", "--data", "attic"],
+              "learning.values.rank": ["--value", "attic.pt", "--data", "attic"]}
 
 
 @pytest.mark.parametrize("module", [m for m in entry_points() if m not in FROM_INPUT])

@@ -271,7 +271,7 @@ def improvement(result: RowResult, reference: RowResult, ids=ALL) -> float | Non
 
 def read_jsonl(path) -> list[dict]:
     """The rows of a run's metrics.jsonl, unreadable lines skipped; [] if the file is missing."""
-    from learning.dqn import read_metrics
+    from learning.q.training import read_metrics
 
     return read_metrics(path, strict=False)[0] if Path(path).is_file() else []
 

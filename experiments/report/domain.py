@@ -53,7 +53,7 @@ def results_name(domain: str, run_name: str, layout: str) -> str:
 def rl_seeds(domain: str, layout: str, horizon: str) -> list[int]:
     """The seeds of `checkpoints/<domain>-rl-<horizon>-<layout>-seed<N>.pt` trained on this domain (its PDDL name
     as the checkpoint records it; a checkpoint that records none is counted)."""
-    from learning.qnet import read_checkpoint
+    from learning.q.checkpoints import read_checkpoint
     from planning.errors import DomainError
 
     seeds = []

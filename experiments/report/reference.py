@@ -86,7 +86,7 @@ def clairvoyant_windows(layouts) -> list[str]:
 
 def checkpoints(paths: list[str], sha) -> list[str]:
     """A row per Q-network checkpoint, with the training results file that names it (what made it)."""
-    from learning.greedy import checkpoint_config
+    from learning.q.checkpoints import checkpoint_config
 
     made = {d["checkpoint"]: (f.name, d) for f in sorted(Path("results").glob("training-*.json"))
             if (d := read(f)) is not None and d.get("checkpoint")}
@@ -212,7 +212,7 @@ def benchmarks() -> list[str]:
     for layout in LAYOUTS:
         d = read(f"results/dqn-bench-{layout}.json")
         if d is None:
-            notes += missing(f"results/dqn-bench-{layout}.json", f"python -m learning.bench --layout {layout}")
+            notes += missing(f"results/dqn-bench-{layout}.json", f"python -m learning.q.bench --layout {layout}")
             continue
         for h in ("myopic", "anticipatory"):
             for regime in ("early", "competent"):
@@ -222,7 +222,7 @@ def benchmarks() -> list[str]:
                              pct(r.get("boundary_share"), 0, False) if "boundary_share" in r else "",
                              f"{pct(r['matmul_share'], 0, False)} at {num(r['matmul_gflops'], 1)} GFLOPS"
                              if "matmul_share" in r else "not measured"])
-        notes += ["", f"`results/dqn-bench-{layout}.json` (`python -m learning.bench --layout {layout} --steps "
+        notes += ["", f"`results/dqn-bench-{layout}.json` (`python -m learning.q.bench --layout {layout} --steps "
                           f"{d['steps']} --updates {d['updates']}`), {d['threads']} thread, CPU time; machine "
                           f"{d.get('machine', '—')}."]
     out += table(["layout", "horizon", "regime", "training steps/s", "updates/s", "ms/update", "parts (ms)",
@@ -250,7 +250,7 @@ def benchmarks() -> list[str]:
     for layout, xs in maes.items():
         m, sd = mean_std(xs)
         out += ["", f"{layout}: validation MAE {num(m, 1)} ± {num(sd, 1)} over {len(xs)} seeds (each seed its own split)."]
-    out += ["", "`python -m learning.gnn_bench --model checkpoints/gnn-<variant>-<layout>-seed<N>.pt --data "
+    out += ["", "`python -m learning.gnn.bench --model checkpoints/gnn-<variant>-<layout>-seed<N>.pt --data "
                 "runs/gnn/<layout>-<variant>`: the model on its own run's validation split; the exact C_AP is the "
                 "labelling oracle's. The authors' three-room runs reached a validation L1 of about 50. *s/epoch*: "
                 "the training run's (`results/training-gnn-*.json`), at whatever load the machine had."]
@@ -284,7 +284,7 @@ def gnn_datasets() -> list[str]:
 
 def native_candidates() -> list[str]:
     """The GNN's estimate on the candidates gnn-native scored, against their exact C_AP (runs with --exact-labels)."""
-    from learning.gnn_native import candidate_accuracy
+    from learning.agents.gnn_native import candidate_accuracy
 
     body = []
     for path in sorted(Path("results").glob("gnn-native-*.json")):
@@ -381,7 +381,7 @@ def target_bound_runs() -> list[str]:
 
 
 def value_ranking() -> list[str]:
-    """Rank agreement of each value's V_AP with the exact -C_AP (`results/value-rank-*.json`, learning.value_rank)."""
+    """Rank agreement of each value's V_AP with the exact -C_AP (`results/value-rank-*.json`, learning.values.rank)."""
     body = []
     for path in sorted(Path("results").glob("value-rank-*.json")):
         d = read(path)
@@ -392,14 +392,14 @@ def value_ranking() -> list[str]:
                          num(a.get("kendall"), 3), pct(a.get("pair_agreement"), 1, False),
                          num(a.get("slope_rl_per_pddl"), 4), kinds or "—"])
     if not body:
-        return ["Not measured yet: `python -m learning.value_rank --data runs/gnn/<layout>-faithful --value CKPT ...`."]
+        return ["Not measured yet: `python -m learning.values.rank --data runs/gnn/<layout>-faithful --value CKPT ...`."]
     return table(["results file", "layout", "value", "states", "Spearman", "Kendall", "pairs ordered right",
                   "slope (RL per PDDL unit)", "Spearman by kind"], body) + [
         "", "The states of a GNN dataset with their exact one-task C_AP (labelling oracle); each value's V_AP against "
             "−C_AP. The search uses a value only to rank the terminal states it reaches, so this is the property "
             "that matters to it. A one-task value's slope is 1/cost_scale (0.01); a multi-task value credits a lower "
             "next-task cost over later tasks too, so its slope is larger. A GNN is scored on its own validation split. "
-            "`python -m learning.value_rank --data runs/gnn/<layout>-<variant> --value CKPT [--value CKPT ...]`."]
+            "`python -m learning.values.rank --data runs/gnn/<layout>-<variant> --value CKPT [--value CKPT ...]`."]
 
 
 def everything(layouts=LAYOUTS, checkpoint_paths=(), sha=None) -> dict[str, list[str]]:

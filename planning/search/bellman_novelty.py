@@ -65,7 +65,7 @@ where it has one. Without a C compiler, or with `ANTICIPATORY_BN_NATIVE=0`,
 the Python loop runs. `kernel=` ("auto", "c", "python") and `native_value=`
 force a path. The loop before the kernel is kept verbatim in
 `planning.search.bellman_novelty_reference` (the benchmark's reference).
-Measured with `learning.bench_bn`: results/bench-bn-*.json.
+Measured with `learning.agents.bench_bn`: results/bench-bn-*.json.
 """
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """The Bellman–Novelty search as it was before the compiled kernel (issue 36): the reference it is measured against.
 
 A verbatim copy of planning/search/bellman_novelty.py at commit 6ec6ff5 (only
-the function renamed), kept unchanged: `learning.bench_bn` reports the new
+the function renamed), kept unchanged: `learning.agents.bench_bn` reports the new
 search's speed as a ratio against it measured in the same run, and the identity
 tests check that the new search makes the same choices. Everything else uses
 `planning.search.bellman_novelty`. The original module docstring follows.

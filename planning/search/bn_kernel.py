@@ -13,7 +13,7 @@ same value it makes the same choices bit for bit.
 `CompiledSearch` is one search. A value that offers a compiled q_max
 (`value.native_q_max(task)` -> an object with `fn`, a `bn_native_fn` of
 _bn.c, `ctx`, optionally `v_ap` and the `model` it was compiled for; the
-Q-network's, `learning.qnet.NativeQ`) is called from C at each flush with
+Q-network's, `learning.q.inference.NativeQ`) is called from C at each flush with
 exactly the states the flush needs (no prefetch: a compiled value's result
 for a state does not depend on the batch, and its per-call cost is nil), and
 its `v_ap` scores the terminals; any other value is called back in Python

@@ -52,7 +52,7 @@ REWARD_KEYS = {"cost_scale": "a positive number", "goal_reward": "a number", "ga
 SEARCH_KEYS = {"beta": "a number of at least 1", "budget": "a non-negative integer",
                "depth_cap": "a positive integer"}
 SEARCH_DEFAULTS = {"beta": 1.0, "budget": 5000, "depth_cap": 20}
-"""learning.guided's defaults where [search] does not give a value."""
+"""learning.agents.guided's defaults where [search] does not give a value."""
 HORIZONS = ("myopic", "anticipatory")
 MAX_WORLDS = 256           # reset worlds checked (the combinations of [[reset]] choices)
 

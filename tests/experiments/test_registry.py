@@ -16,7 +16,8 @@ from planning.world.task_stream import draw_tasks
 @pytest.fixture(scope="module")
 def checkpoint(minimal, tmp_path_factory):
     from learning.encoding import Encoding
-    from learning.qnet import build_network, network_payload, save_checkpoint
+    from learning.q.checkpoints import network_payload, save_checkpoint
+    from learning.q.network import build_network
 
     enc = Encoding(minimal)
     path = tmp_path_factory.mktemp("ckpt") / "rl-anticipatory-grid-seed0.pt"
@@ -27,8 +28,8 @@ def checkpoint(minimal, tmp_path_factory):
 @pytest.fixture(scope="module")
 def gnn(minimal, tmp_path_factory):
     """A tiny untrained GNN checkpoint with the grid's node features."""
-    from learning.gnn_model import GNNCostModel, save_gnn_checkpoint
-    from learning.graph import GraphEncoder
+    from learning.gnn.model import GNNCostModel, save_gnn_checkpoint
+    from learning.gnn.graph import GraphEncoder
 
     names = GraphEncoder(minimal).feature_names
     net = GNNCostModel(len(names), width=8)

@@ -195,7 +195,7 @@ def test_a_training_sweeps_summary_is_named_after_its_grid():
 def test_a_deployed_sweep_exports_each_run_and_plays_it_greedily(tiny, tmp_path):
     """--deploy: each finished run's compact checkpoint, key figures and rl-greedy results, named as
     learning.export and experiments.evaluate name them; the results file is the greedy evaluation's."""
-    from learning.qnet import load_value_function
+    from learning.q.value import load_value_function
 
     one = [a if a != "0-1" else "1" for a in TRAIN]                      # seed 1 only
     r = sweep(tiny, tmp_path, "deploy", *one, "--runs", "runs/d", "--deploy", "--sequences", "0-1",

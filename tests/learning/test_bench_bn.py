@@ -1,4 +1,4 @@
-"""learning.bench_bn: the search timed against the reference implementation in the same run."""
+"""learning.agents.bench_bn: the search timed against the reference implementation in the same run."""
 from pathlib import Path
 
 import pytest
@@ -9,8 +9,8 @@ def test_benchmark_reports_the_ratio_and_the_same_plans(two_room):
     ckpt = Path("checkpoints/rl-anticipatory-two-room-seed0.pt")
     if not ckpt.is_file():
         pytest.skip(f"no {ckpt}")
-    from learning.bench_bn import benchmark
-    from learning.qnet import load_value_function
+    from learning.agents.bench_bn import benchmark
+    from learning.q.value import load_value_function
     from planning.parallel import one_thread
     from planning.world.sequences import load
 

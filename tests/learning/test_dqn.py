@@ -4,9 +4,10 @@ import json
 import numpy as np
 import pytest
 
-from learning.dqn import Config, Trainer, bound_suffix, domain_defaults, epsilon, random_action
-from learning.qnet import COMPLETE, CONTINUE, TERMINAL, ValueFunction
-from learning.replay import Replay, mixed_batch
+from learning.q.training import Config, Trainer, bound_suffix, domain_defaults, epsilon, random_action
+from learning.q.replay import COMPLETE, CONTINUE, TERMINAL
+from learning.q.value import ValueFunction
+from learning.q.replay import Replay, mixed_batch
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 from tests.conftest import MINIMAL
@@ -70,7 +71,7 @@ def test_short_training_learns_the_first_task_and_resumes(minimal, tmp_path):
     with pytest.raises(DomainError, match="explore='factored', not 'uniform' .pass --explore factored"):
         Trainer(small_config(minimal, tmp_path, explore="uniform"), progress=False).resume(tmp_path / "last.pt")
     # a checkpoint from before the exploration settings existed was trained with the old ones
-    from learning.qnet import read_checkpoint, save_checkpoint
+    from learning.q.checkpoints import read_checkpoint, save_checkpoint
     old = read_checkpoint(tmp_path / "last.pt")
     for key in ("eps_schedule", "explore", "demo_planner"):
         del old["config"][key]
@@ -131,7 +132,8 @@ def test_rl_greedy_agent_loads_a_checkpoint_and_acts(two_room, tmp_path):
 
     from experiments.registry import agent_class
     from learning.encoding import Encoding
-    from learning.qnet import build_network, network_payload, save_checkpoint
+    from learning.q.checkpoints import network_payload, save_checkpoint
+    from learning.q.network import build_network
 
     with pytest.raises(DomainError, match="--checkpoint"):
         agent_class("rl-greedy").from_args(Namespace(checkpoint=None))
@@ -148,7 +150,7 @@ def test_rl_greedy_agent_loads_a_checkpoint_and_acts(two_room, tmp_path):
 
 
 def test_throughput_benchmark_reports_rates_and_the_boundary_share():
-    from learning.bench import bench_horizon
+    from learning.q.bench import bench_horizon
     r = bench_horizon(MINIMAL, "grid", "anticipatory", steps=60, updates=6, seed=0)
     assert r["env_steps_per_s"] > 0 and r["demo_transitions"] > 0
     for regime in ("early", "competent"):

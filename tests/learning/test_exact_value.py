@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from experiments.minimal_example import FIRST, exact_placement_q, placement_state
-from learning.exact_value import ExactValue, reset_states
+from learning.values.exact import ExactValue, reset_states
 from planning.errors import DomainError
 from planning.search.bellman_novelty import bellman_novelty_search
 from planning.search.optimal import uniform_cost_search

@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 import torch
 
-from learning.gnn_dataset import DatasetConfig, label_states, load_dataset, save_dataset
-from learning.gnn_model import (THESIS_FEATURES, THESIS_PARAMETERS, GNNCostModel, InferenceGNN, load_gnn,
+from learning.gnn.dataset import DatasetConfig, label_states, load_dataset, save_dataset
+from learning.gnn.model import (THESIS_FEATURES, THESIS_PARAMETERS, GNNCostModel, InferenceGNN, load_gnn,
                                 parameter_count, read_gnn_checkpoint, save_gnn_checkpoint)
-from learning.gnn_candidates import Region
-from learning.gnn_native import GNNNativePlanner, candidate_accuracy, select
-from learning.gnn_train import TrainConfig, build_model, evaluate_l1, split, train
-from learning.gnn_value import GNNValue
-from learning.graph import GraphEncoder
+from learning.gnn.candidates import Region
+from learning.agents.gnn_native import GNNNativePlanner, candidate_accuracy, select
+from learning.gnn.training import TrainConfig, build_model, evaluate_l1, split, train
+from learning.gnn.value import GNNValue
+from learning.gnn.graph import GraphEncoder
 from planning.errors import DomainError
 from planning.value import Value
 from test_graph import fake_embed
@@ -112,7 +112,7 @@ def test_value_honours_the_protocol(minimal, value):
 
 
 def test_value_in_chunks_is_the_value_in_one_pass(minimal, value, monkeypatch):
-    import learning.gnn_value as gv
+    import learning.gnn.value as gv
 
     states = list(dict.fromkeys(minimal.random_walk_states(80, 4)))[:13]
     value._cache.clear()
@@ -137,7 +137,7 @@ def test_value_with_a_full_cache_still_answers_every_state(minimal, encoder):
 @pytest.mark.parametrize("edge_dim", [None, "relations"])
 def test_inference_forward_is_the_modules(minimal, encoder, edge_dim):
     """InferenceGNN (joined maps, folded batch norm, first layer through the base graph) = the module in eval."""
-    from learning.gnn_value import collate
+    from learning.gnn.value import collate
 
     torch.manual_seed(3)
     net = GNNCostModel(encoder.num_features, edge_dim=len(encoder.relation_names) if edge_dim else None)
@@ -254,8 +254,8 @@ def test_candidate_region_is_the_myopic_path_plus_one_move(two_room):
 
 
 def test_gnn_bench_scores_the_validation_split(minimal, encoder, dataset, tmp_path):
-    """learning.gnn_bench: its MAE is the trainer's validation L1, its exact reference re-derives the labels."""
-    from learning.gnn_bench import bench, pair_agreement
+    """learning.gnn.bench: its MAE is the trainer's validation L1, its exact reference re-derives the labels."""
+    from learning.gnn.bench import bench, pair_agreement
     assert pair_agreement(np.array([1.0, 2.0, 3.0]), np.array([10.0, 30.0, 20.0])) == pytest.approx(2 / 3)
     s = train(TrainConfig(data=str(dataset), seed=0, epochs=2), tmp_path, progress=False)
     r = bench(str(tmp_path / "best.pt"), str(dataset), "domains/minimal", batch=6, repeats=2, n_exact=5, encoder=encoder)
@@ -300,7 +300,7 @@ class _LabelValue:
 
 
 def test_value_rank_scores_the_exact_ranking_one_and_its_reverse_minus_one(minimal, dataset):
-    from learning.value_rank import rank
+    from learning.values.rank import rank
 
     r = rank([_LabelValue(minimal, dataset, 1.0), _LabelValue(minimal, dataset, -1.0)], str(dataset), "domains/minimal")
     exact, reverse = r["values"][0]["all"], r["values"][1]["all"]
@@ -312,7 +312,7 @@ def test_value_rank_scores_the_exact_ranking_one_and_its_reverse_minus_one(minim
 
 
 def test_value_rank_scores_a_gnn_on_its_validation_split_only(minimal, encoder, dataset, tmp_path, monkeypatch):
-    import learning.value_rank as vr
+    import learning.values.rank as vr
 
     train(TrainConfig(data=str(dataset), seed=0, epochs=1), tmp_path, progress=False)
     monkeypatch.setattr(vr, "load_value", lambda path, model: GNNValue(path, model, encoder=encoder))

@@ -1,4 +1,4 @@
-"""The focused candidate generator of the GNN's native selection (learning.gnn_candidates, domain.toml
+"""The focused candidate generator of the GNN's native selection (learning.gnn.candidates, domain.toml
 [gnn.candidates]): its region, relevant objects, clause order and cap on hand-made restaurant states;
 its table checked; the domain digest left alone; and a native selection that takes a preparation
 exactly when the exact C_AP says it pays."""
@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from learning.gnn_candidates import FocusedCandidates, actions_along, parse_formula
-from learning.gnn_native import GNNNativePlanner
+from learning.gnn.candidates import FocusedCandidates, actions_along, parse_formula
+from learning.agents.gnn_native import GNNNativePlanner
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 import torch
 
-from learning.gnn_dataset import ClauseLibrary, DatasetConfig, JointGoal, label_states, load_dataset, save_dataset
-from learning.graph import GraphEncoder
+from learning.gnn.dataset import ClauseLibrary, DatasetConfig, JointGoal, label_states, load_dataset, save_dataset
+from learning.gnn.graph import GraphEncoder
 from oracles.labelling import Labeller
 from oracles.myopic import MyopicOracle, rollout
 from oracles.rollouts import record_states
@@ -118,7 +118,7 @@ def test_joint_goal(three_room):
 
 def test_augmented_build_is_the_same_for_any_number_of_workers(minimal, tmp_path):
     """Prepared streams collected and labelled in two processes give the dataset one process gives."""
-    from learning.gnn_dataset import build
+    from learning.gnn.dataset import build
 
     metas = []
     for workers in (1, 2):

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from learning.graph import EMBEDDING_DIM, GraphEncoder
+from learning.gnn.graph import EMBEDDING_DIM, GraphEncoder
 from planning.domain.roles import agent_predicates
 
 
@@ -85,7 +85,7 @@ def test_agent_predicates(three_room):
 @pytest.mark.slow
 def test_minilm_embeddings_offline(three_room, tmp_path):
     """The packaged all-MiniLM-L6-v2 loads without network; embeddings are unit vectors, cached by name."""
-    from learning.graph import sentence_embeddings
+    from learning.gnn.graph import sentence_embeddings
 
     cache = tmp_path / "emb.json"
     e = sentence_embeddings(["cup_0", "robot"], cache=cache)

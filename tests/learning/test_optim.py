@@ -2,7 +2,7 @@
 import torch
 from torch import nn
 
-from learning.optim import FlatAdam
+from learning.q.optim import FlatAdam
 
 
 def _net(seed=0):

@@ -6,9 +6,11 @@ import pytest
 import torch
 
 from learning.encoding import Encoding
-from learning.qnet import (COMPLETE, CONTINUE, TERMINAL, BoundaryCache, build_network, load_value_function,
-                           network_payload,
-                           save_checkpoint, td_targets)
+from learning.q.checkpoints import network_payload, save_checkpoint
+from learning.q.network import build_network
+from learning.q.replay import COMPLETE, CONTINUE, TERMINAL
+from learning.q.targets import BoundaryCache, td_targets
+from learning.q.value import load_value_function
 from planning.errors import DomainError
 
 
@@ -185,7 +187,8 @@ def test_brute_force_argmax_over_all_label_tuples(minimal):
 
 
 def test_numpy_inference_matches_the_network(two_room, enc, net):
-    from learning.qnet import NumpyQ, preparedness
+    from learning.q.inference import NumpyQ
+    from learning.q.targets import preparedness
 
     states = two_room.random_walk_states(24, seed=13)
     packed = enc.pack(states)
@@ -195,7 +198,7 @@ def test_numpy_inference_matches_the_network(two_room, enc, net):
         expect = net(torch.from_numpy(obs), torch.from_numpy(valid)).numpy()
     got = NumpyQ(net)(obs, valid)
     assert np.allclose(got[valid], expect[valid], atol=1e-4) and np.isneginf(got[~valid]).all()
-    from learning.qnet import ValueFunction
+    from learning.q.value import ValueFunction
     assert np.allclose(ValueFunction(net, enc).v_ap(states), preparedness(net, net, enc, packed), atol=1e-4)
 
 
@@ -235,7 +238,7 @@ def test_boundary_cache_is_exact_and_spares_the_target_net(two_room, enc):
 
 def _torch_q_max(net, enc, packed, tasks):
     """max over the valid actions of the plain torch forward, per (state, task) row."""
-    from learning.qnet import masked_max
+    from learning.q.network import masked_max
     obs, valid = enc.observe(packed, tasks), enc.valid_for(packed, tasks)
     with torch.no_grad():
         q = net(torch.from_numpy(obs), torch.from_numpy(valid))
@@ -248,7 +251,9 @@ def test_batched_q_max_and_v_ap_match_the_torch_forward(layout, weights, request
     """The searches' fast path (BatchedQ) gives the torch forward's numbers, satisfied tasks and V_AP included."""
     from pathlib import Path
 
-    from learning.qnet import BatchedQ, ValueFunction, _pairs
+    from learning.q.inference import BatchedQ
+    from learning.q.targets import _pairs
+    from learning.q.value import ValueFunction
     model = request.getfixturevalue(layout)
     enc = Encoding(model)
     if weights == "random":
@@ -285,7 +290,7 @@ def test_batched_q_max_and_v_ap_match_the_torch_forward(layout, weights, request
     # V_AP: the support-weighted max over every (state, task) pair
     obs, valid = _pairs(enc, packed)
     with torch.no_grad():
-        from learning.qnet import masked_max
+        from learning.q.network import masked_max
         qm = masked_max(net(torch.from_numpy(obs), torch.from_numpy(valid)), torch.from_numpy(valid))[0]
     expect = qm.double().numpy().reshape(len(states), len(enc.support)) @ enc.task_prob[enc.support]
     np.testing.assert_allclose(vf.v_ap(states), expect, rtol=0, atol=1e-4)
@@ -336,7 +341,8 @@ class ReferenceNet(torch.nn.Module):
 def reference_td_targets(online, target, enc, batch, gamma, horizon):
     """The previous td_targets without its cache: every continuing pair and every completion's
     pairs with the whole support through both networks, observations built in full."""
-    from learning.qnet import _pairs, masked_max
+    from learning.q.network import masked_max
+    from learning.q.targets import _pairs
     y = torch.as_tensor(batch["rewards"], dtype=torch.float32).clone()
     kinds, nxt = np.asarray(batch["kinds"]), batch["next_states"]
     cont = np.flatnonzero(kinds == CONTINUE)
@@ -492,7 +498,8 @@ def test_committed_checkpoints_act_as_before(path):
 
 def test_live_greedy_acts_as_the_forward_and_follows_the_weights(restaurant):
     """The trainer's numpy acting: the forward's argmax, also after the weights change in place."""
-    from learning.qnet import LiveGreedy, masked_max
+    from learning.q.inference import LiveGreedy
+    from learning.q.network import masked_max
     enc = Encoding(restaurant)
     net = trained_like(enc, 4)
     greedy = LiveGreedy(net)
@@ -514,8 +521,8 @@ def test_live_greedy_acts_as_the_forward_and_follows_the_weights(restaurant):
 def test_slot_cache_gives_the_same_targets_and_observations(two_room, enc):
     """Per-slot encodings and target values: the same targets and (s, τ) rows as computing them
     afresh, after slots are rewritten and after the target network changes (a sync)."""
-    from learning.qnet import SlotCache
-    from learning.replay import Replay, mixed_batch
+    from learning.q.targets import SlotCache
+    from learning.q.replay import Replay, mixed_batch
     online, target = trained_like(enc, 6), trained_like(enc, 7)
     agent, demos = Replay(40, enc.n_words), Replay(30, enc.n_words)
     fill = lambda memory, n, seed: [memory.add(b["states"][i], b["tasks"][i], b["actions"][i], b["rewards"][i],
@@ -550,8 +557,8 @@ def test_slot_cache_gives_the_same_targets_and_observations(two_room, enc):
 
 def test_empty_batches_and_no_row_to_value(two_room, enc):
     """No rows at all, and (with both caches warm) no row for the target network: the same targets."""
-    from learning.qnet import SlotCache
-    from learning.replay import Replay, mixed_batch
+    from learning.q.targets import SlotCache
+    from learning.q.replay import Replay, mixed_batch
     net = trained_like(enc, 9)
     valid = torch.from_numpy(enc.valid_for(enc.pack(two_room.random_walk_states(1, seed=2)), [0]))[:0]
     assert net(torch.zeros(0, enc.obs_dim), valid).shape == (0, enc.n_actions)
@@ -568,7 +575,7 @@ def test_empty_batches_and_no_row_to_value(two_room, enc):
 def test_compact_checkpoint_acts_as_the_full_one(three_room, tmp_path):
     """learning.export's float16 checkpoint: about half the bytes, loaded safely, the same greedy actions."""
     from learning.export import compact
-    from learning.qnet import read_checkpoint, save_checkpoint
+    from learning.q.checkpoints import read_checkpoint, save_checkpoint
     payload = read_checkpoint("checkpoints/rl-anticipatory-three-room-seed0.pt")      # float32 once loaded
     payload.pop("precision", None)
     g = torch.Generator().manual_seed(0)                  # weights float16 cannot hold exactly, as a trainer's
@@ -594,7 +601,7 @@ def test_export_keeps_float32_where_float16_would_change_the_greedy_actions(path
     """A healthy network's float16 weights swap at most near-tied actions; the diverged three-room myopic
     seed-4 network's values (about 1e10) move by more than their gaps, so its export stays float32."""
     from learning.export import TIE, faithful_compact
-    from learning.qnet import read_checkpoint
+    from learning.q.checkpoints import read_checkpoint
     payload = read_checkpoint(path)
     g = torch.Generator().manual_seed(0)                  # weights float16 cannot hold exactly, as a trainer's
     payload["net"] = {k: v * (1 + 1e-3 * torch.randn(v.shape, generator=g)) if v.is_floating_point() else v

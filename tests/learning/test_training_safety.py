@@ -11,8 +11,9 @@ from pathlib import Path
 
 import pytest
 
-from learning.dqn import read_metrics
-from learning.qnet import load_value_function, read_checkpoint, save_checkpoint
+from learning.q.training import read_metrics
+from learning.q.checkpoints import read_checkpoint, save_checkpoint
+from learning.q.value import load_value_function
 from planning import cli
 from planning.atomic import sha256
 from planning.domain.identity import identity
@@ -134,7 +135,7 @@ class Killed(Exception):
 def train_killed(item: dict, at: int, monkeypatch) -> None:
     """Run a sweep's item until step `at`, where the trainer dies (raising from its environment step)."""
     from experiments.sweep import train_item
-    from learning.dqn import Trainer
+    from learning.q.training import Trainer
 
     step = Trainer.env_step
 
@@ -161,7 +162,7 @@ def test_a_sweep_run_killed_and_rerun_logs_each_step_once_as_the_uninterrupted_r
     the run that was never interrupted (not 100, 200, 100, 200, 300, 400)."""
     from experiments.sweep import train_item
 
-    # the target network synced at the checkpoints: the target values a trainer caches (learning.qnet) are then
+    # the target network synced at the checkpoints: the target values a trainer caches (learning.q.targets) are then
     # recomputed after a resume in the batches the uninterrupted run computes them in, so the rows agree exactly
     settings = {**SMALL, "steps": 400, "checkpoint_every": every, "target_every": 100}
     item = lambda out: {"domain": MINIMAL, "layout": "grid", "horizon": "myopic", "seed": 0, "settings": settings,
@@ -275,7 +276,7 @@ def test_export_names_its_outputs_from_checked_values(run, tmp_path, capsys, mon
     assert code == 2 and f"error: {data}/meta.json: layout '../../escaped' cannot name an output" in err, err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["work"]
     # a GNN run's layout names its checkpoint
-    from learning.gnn_model import save_gnn_checkpoint
+    from learning.gnn.model import save_gnn_checkpoint
     (data / "meta.json").write_text(json.dumps({"config": {"augmented": False}}))
     gnn = tmp_path / "work" / "gnn"
     save_gnn_checkpoint(gnn / "best.pt", {"model": {}, "dims": {}, "layout": "../x", "config": {"data": str(data),
@@ -351,7 +352,7 @@ def test_committed_checkpoints_load_as_before(two_room, capsys):
 
 
 def test_the_minimal_example_trains_and_resumes_through_the_one_resume_path(tmp_path):
-    """experiments.minimal_example trains through learning.dqn.train_run: a second run resumes each
+    """experiments.minimal_example trains through learning.q.training.train_run: a second run resumes each
     horizon's finished run (same steps, no metrics row twice) instead of appending to it."""
     import json
 

@@ -10,7 +10,7 @@ import pytest
 
 from experiments.registry import agent_class, agent_options, build
 from learning import values
-from learning.exact_value import ExactValue
+from learning.values.exact import ExactValue
 from planning.atomic import write_json
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
@@ -24,7 +24,8 @@ ROOT = Path(__file__).resolve().parents[2]
 @pytest.fixture(scope="module")
 def checkpoint(minimal, tmp_path_factory):
     from learning.encoding import Encoding
-    from learning.qnet import build_network, network_payload, save_checkpoint
+    from learning.q.checkpoints import network_payload, save_checkpoint
+    from learning.q.network import build_network
 
     enc = Encoding(minimal)
     path = tmp_path_factory.mktemp("ckpt") / "rl-anticipatory-grid-seed0.pt"
@@ -34,8 +35,8 @@ def checkpoint(minimal, tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def gnn(minimal, tmp_path_factory):
-    from learning.gnn_model import GNNCostModel, save_gnn_checkpoint
-    from learning.graph import GraphEncoder
+    from learning.gnn.model import GNNCostModel, save_gnn_checkpoint
+    from learning.gnn.graph import GraphEncoder
 
     names = GraphEncoder(minimal).feature_names
     net = GNNCostModel(len(names), width=8)
@@ -78,7 +79,7 @@ def test_every_row_loads_a_value_of_the_protocol(minimal, checkpoint, gnn):
     exact, myopic = values.load_value("exact", minimal), values.load_value("exact:myopic", minimal)
     assert (exact.horizon, myopic.horizon) == ("anticipatory", "myopic")
     assert exact.v_ap(s)[0] == ExactValue(minimal).v_ap(s)[0]
-    assert values.record("exact:myopic") == {"value": "exact (learning.exact_value)", "horizon": "myopic"}
+    assert values.record("exact:myopic") == {"value": "exact (learning.values.exact)", "horizon": "myopic"}
     assert values.record("zero") == {"value": "zero"}
     with pytest.raises(DomainError, match="q-network needs a checkpoint"):
         values.load_value("q-network", minimal)
@@ -211,7 +212,8 @@ def test_the_reference_is_any_registered_planner(minimal):
 def test_value_rank_and_bench_bn_take_a_value_by_name(minimal, tmp_path, monkeypatch):
     """value_rank scores `exact` against labels made from its own V_AP (a perfect ranking); bench_bn
     runs the search on it along a seeded stream and records its kind."""
-    from learning import bench_bn, value_rank
+    from learning.agents import bench_bn
+    from learning.values import rank as value_rank
     from planning.domain.grounding import atom_text
 
     exact = ExactValue(minimal)

@@ -351,7 +351,7 @@ def test_same_inputs_same_plan_with_the_q_network(two_room):
         pytest.skip("no two-room checkpoint")
     torch = pytest.importorskip("torch")
     torch.set_num_threads(1)
-    from learning.qnet import load_value_function
+    from learning.q.value import load_value_function
     m = two_room
     vf = load_value_function(ckpt, m)
     s, task = m.reset_state(2000), m.tasks.get("make-coffee(servingtable)")

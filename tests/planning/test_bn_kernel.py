@@ -1,4 +1,4 @@
-"""The compiled Bellman–Novelty loop (planning/search/_bn.c) and the compiled Q-network value (learning/_qnet.c).
+"""The compiled Bellman–Novelty loop (planning/search/_bn.c) and the compiled Q-network value (learning/q/_qnet.c).
 
 - the compiled successors are Model.successors, in order;
 - with the same value the C loop, the Python loop and the reference implementation
@@ -36,7 +36,7 @@ def _checkpoint(layout: str) -> Path:
 def values(restaurant):
     pytest.importorskip("torch")
     from planning.parallel import one_thread
-    from learning.qnet import load_value_function
+    from learning.q.value import load_value_function
 
     one_thread()
     return load_value_function(_checkpoint(restaurant.layout), restaurant)
@@ -115,7 +115,7 @@ def test_kernel_switches(two_room, monkeypatch):
 # ---- the compiled value ----------------------------------------------------------------------------------
 def _native(values):
     if values.native is None:
-        pytest.skip("no C compiler for learning/_qnet.c")
+        pytest.skip("no C compiler for learning/q/_qnet.c")
     return values.native
 
 
@@ -132,7 +132,7 @@ def test_compiled_q_max_and_v_ap_are_batchedq_up_to_rounding(restaurant, values)
 
 
 def test_compiled_value_does_not_depend_on_the_batch(restaurant, values):
-    from learning.qnet import NativeQ, _qnet_lib
+    from learning.q.inference import NativeQ, _qnet_lib
 
     _native(values)
     fresh = NativeQ(values.batched, _qnet_lib(), memo=False)
@@ -163,8 +163,8 @@ def test_the_search_picks_the_committed_plans(layout, request):
     plans (the three-room's task 0 has a reference plan that takes half a minute to find), then every searched
     task up to `last` is planned (optimal reference plan, the search with the committed checkpoint and the
     layout's settings) and must choose the committed plan, action for action."""
-    from learning.guided import search_defaults
-    from learning.qnet import load_value_function
+    from learning.agents.guided import search_defaults
+    from learning.q.value import load_value_function
     from planning.parallel import one_thread
     from planning.world.sequences import load
     from planning.world.task_stream import PersistentWorld

@@ -138,7 +138,8 @@ def test_the_tools_say_where_they_take_a_silent_default(capsys, tmp_path):
     """Where the defaults are read: rl-guided without [search] beta (β = 1.0: exactly the myopic plan) and the
     reward without [reward] cost_scale (1): one warning line each on stderr, once however often they are read;
     an explicit --beta says nothing."""
-    from learning import guided, reward
+    from learning import reward
+    from learning.agents import guided
     from planning.domain.compiler import compile_source
     from planning.domain.folder import read_domain
 

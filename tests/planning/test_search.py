@@ -32,7 +32,7 @@ def test_astar_equals_uniform_cost_search(two_room):
 def test_one_search_for_many_goals_gives_each_its_optimal_plan(two_room):
     """optimal_plans: a task with each of several clauses, one A*: every cost is the single search's, every
     plan reaches its goal at that cost, and a goal that is never reached has no plan."""
-    from learning.gnn_dataset import ClauseLibrary, JointGoal
+    from learning.gnn.dataset import ClauseLibrary, JointGoal
     bm = BatchedModel(two_room)
     library = ClauseLibrary(two_room, 0)
     task = two_room.tasks.get("make-coffee(servingtable)")

@@ -31,14 +31,14 @@ QUICK = {          # committed results are kept, or the command is cheap: must f
 LONG = {           # must start cleanly
     "experiments.demo", "oracles.rollouts", "experiments.calibrate", "learning.gnn_dataset",
     "learning.dqn", "experiments.minimal_example", "planning.external.simulator_bench", "oracles.planner_bench",
-    "oracles.labelling_bench", "learning.bench", "learning.bench_bn", "experiments.select_beta",
+    "oracles.labelling_bench", "learning.q.bench", "learning.agents.bench_bn", "experiments.select_beta",
     "experiments.sweep",
 }
 NEEDS_A_RUN = {    # their input is what another command makes over hours: checked on a missing input instead
     "learning.export": "a finished training run (python -m learning.dqn makes one in about two hours)",
     "learning.gnn_train": "a labelled dataset (python -m learning.gnn_dataset)",
-    "learning.gnn_bench": "a labelled dataset (python -m learning.gnn_dataset)",
-    "learning.value_rank": "a labelled dataset (python -m learning.gnn_dataset)",
+    "learning.gnn.bench": "a labelled dataset (python -m learning.gnn_dataset)",
+    "learning.values.rank": "a labelled dataset (python -m learning.gnn_dataset)",
 }
 NOT_HERE = ("--ray",)   # a Ray cluster's commands (`ray start --head` first): not run on a CI machine
 QUICK_ONLY_WITH = {"experiments.reproduce": "--report-only"}   # without it, it plays whatever is missing first

@@ -1,4 +1,4 @@
-/* max_a Q(s, tau, a) of the factored dueling Q-network (learning/qnet.py) for int-bitset states, in C.
+/* max_a Q(s, tau, a) of the factored dueling Q-network (learning/q/network.py; its engine NativeQ in learning/q/inference.py) for int-bitset states, in C.
  *
  * The same function as BatchedQ.q_max (see its docstring for the structure):
  *   h1 = relu(b1 + task part + sum of the atom columns of layer 1)      float32

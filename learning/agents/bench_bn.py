@@ -15,11 +15,11 @@ Prints expansions per second of both, where the new search's time goes (value
 calls, simulator, novelty tables, the rest: heaps and bookkeeping) and the
 mean seconds per task.
 
-    python -m learning.bench_bn --layout three-room --checkpoint checkpoints/rl-anticipatory-three-room-seed0.pt \\
+    python -m learning.agents.bench_bn --layout three-room --checkpoint checkpoints/rl-anticipatory-three-room-seed0.pt \\
         --tasks 20 --out results/bench-bn-three-room.json
-    python -m learning.bench_bn --layout two-room --checkpoint checkpoints/rl-anticipatory-two-room-seed0.pt \\
+    python -m learning.agents.bench_bn --layout two-room --checkpoint checkpoints/rl-anticipatory-two-room-seed0.pt \\
         --tasks 20 --out results/bench-bn-two-room.json
-    python -m learning.bench_bn --layout three-room --value gnn:checkpoints/gnn-faithful-three-room-seed0.pt --tasks 10
+    python -m learning.agents.bench_bn --layout three-room --value gnn:checkpoints/gnn-faithful-three-room-seed0.pt --tasks 10
 
 `--value KIND:PATH` takes any value of the registry (`learning.values`;
 `--checkpoint PATH` is short for `--value q-network:PATH`, and without either
@@ -41,7 +41,7 @@ from planning.atomic import write_json
 from planning.parallel import results_provenance
 from planning.domain.batched import BatchedModel
 from planning.domain.compiler import compile_domain
-from learning.guided import search_defaults
+from learning.agents.guided import search_defaults
 from learning.values import HELP, load_value, parse
 from planning.search.bellman_novelty import DEPTH_CAP, PREFETCH, bellman_novelty_search
 from planning.search.bellman_novelty_reference import bellman_novelty_search_reference

@@ -12,7 +12,7 @@ the layout's demonstrations), then times
   its tasks, where the anticipatory boundary target is largest);
 - the boundary target alone: on the same minibatches, the anticipatory targets minus
   the myopic ones (which skip the boundary), with the per-sync cache of target values
-  (`learning.qnet.BoundaryCache`, cleared every target_every updates as in training)
+  (`learning.q.targets.BoundaryCache`, cleared every target_every updates as in training)
   and without it. Its share is of the time of one update;
 - the parts of an update (`parts_ms`): the targets, the forward and backward pass of the
   minibatch, the clipped Adam step;
@@ -23,7 +23,7 @@ the layout's demonstrations), then times
 
 A training step is one ε = 0.05 acting step and one update: `train_steps_per_s_*`.
 
-    python -m learning.bench --layout two-room [--updates 1000] [--steps 2000] [--out FILE]
+    python -m learning.q.bench --layout two-room [--updates 1000] [--steps 2000] [--out FILE]
 
 Times are this process's CPU time (torch runs one thread): on a free core that is the
 wall time, on a shared machine it is what the work costs rather than how long it waited
@@ -44,9 +44,9 @@ from planning.atomic import write_json
 from planning.parallel import results_provenance
 from planning.domain.compiler import compile_domain
 
-from .dqn import HORIZONS, Config, Trainer, domain_defaults
-from .qnet import COMPLETE, BoundaryCache, td_targets
-from .replay import mixed_batch
+from .replay import COMPLETE, mixed_batch
+from .targets import BoundaryCache, td_targets
+from .training import HORIZONS, Config, Trainer, domain_defaults
 
 clock = time.process_time
 MATMUL_OPS = ("aten::addmm", "aten::mm", "aten::bmm", "aten::addmv", "aten::mv", "aten::dot")

@@ -6,7 +6,8 @@ first terminal and sets C_myo; the search (`planning.search.bellman_novelty`)
 then collects other ways of completing the task; the terminal whose
 post-consumption state has the highest V_AP among those costing at most β·C_myo
 is executed in full. With the myopic checkpoint this is the thesis's Myopic RL
-(guided) row, with the anticipatory one Anticipatory RL (guided).
+(guided) row, with the anticipatory one Anticipatory RL (guided); `GNNGuidedPlanner` is the
+same agent with the GNN's value (gnn-guided).
 
 The value is any of the value registry (`--value KIND:PATH`, `learning.values`;
 `--checkpoint PATH` is short for `--value q-network:PATH`). The authors'
@@ -27,7 +28,7 @@ import sys
 from dataclasses import asdict
 from pathlib import Path
 
-from learning.greedy import checkpoint_run_name
+from learning.agents.greedy import checkpoint_run_name
 from learning.values import HELP, load_value, parse, record
 from oracles.myopic import PLANNERS, MyopicOracle
 from planning.errors import DomainError
@@ -184,3 +185,25 @@ def reference_suffix(reference) -> str:
     if isinstance(reference, MyopicOracle):
         return "" if reference.planner == "internal" else f"-{reference.planner}"
     return f"-{reference.run_name}"
+
+
+class GNNGuidedPlanner(ValueGuidedPlanner):
+    """The GNN's C_AP estimate (`learning.gnn.value.GNNValue`) as the value of the cost-bounded Bellman–Novelty
+    search (thesis Table 5.3, "GNN value, BN search"): the rl-guided agent with `--model PATH`, short for
+    `--value gnn:PATH`; the same search, reference plan, β, budget and depth cap."""
+
+    name = "gnn-guided"
+    value_kind = "gnn"
+    checkpoint_prefix = "gnn-"
+
+    @classmethod
+    def options(cls, p) -> None:
+        which = p.add_mutually_exclusive_group(required=True)
+        which.add_argument("--model", help="GNN checkpoint (learning.gnn_train's best.pt; short for --value gnn:PATH)")
+        which.add_argument("--value", help=HELP)
+        cls.search_options(p)
+
+    @classmethod
+    def from_args(cls, args, model, reference_planner=None) -> "GNNGuidedPlanner":
+        return cls(model, args.value or args.model, args.beta, args.budget, args.depth_cap, args.reference,
+                   args.time_limit, default_reference(args, reference_planner))

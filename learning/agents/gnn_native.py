@@ -5,14 +5,14 @@ Per task, the candidates are
   * up to `max_clauses` (10) plans that solve the task together with one preparatory clause, planned
     optimally (task AND clause). Which clauses, the *candidate generator*:
       - a domain whose domain.toml declares `[gnn.candidates]` (the restaurant does): the *focused*
-        generator of `learning.gnn_candidates`, prior work's own (`_generate_focused_augmentations`
+        generator of `learning.gnn.candidates`, prior work's own (`_generate_focused_augmentations`
         of the authors' evaluation): the region is the locations on the myopic plan's path plus those
         within the table's hops of the base hop (the smallest move cost), the relevant objects those
         the plan names, those in the region and the declared used-up resources, and the clauses the
         table's families give over them in sorted object order; the first `max_clauses` are planned,
         with no cost sort (the table's `max_clauses` unless --max-clauses says otherwise);
       - a domain without the table: the clause library of the dataset generator
-        (`learning.gnn_dataset.ClauseLibrary`: an object clean, a container filled, the jar brought to
+        (`learning.gnn.dataset.ClauseLibrary`: an object clean, a container filled, the jar brought to
         where water is used, the machine water restored), among the clauses false now and costing at
         least the library's minimum (h_max) whose places all lie in the candidate region: the
         locations the agent stands at along the myopic plan plus those one move away. A clause's places
@@ -45,9 +45,9 @@ import numpy as np
 from planning.errors import DomainError
 from planning.world.agents import Planner, Reply
 
-from learning.gnn_candidates import FocusedCandidates, Region, actions_along
-from learning.gnn_value import GNNValue, model_summary
-from learning.greedy import checkpoint_run_name
+from learning.gnn.candidates import FocusedCandidates, Region, actions_along
+from learning.gnn.value import GNNValue, model_summary
+from learning.agents.greedy import checkpoint_run_name
 
 GENERATORS = ("domain", "clause-library")
 """`--generator`: the domain's declared candidates, or the dataset's clause library regardless."""
@@ -75,7 +75,7 @@ def candidate_accuracy(per_task: list) -> dict | None:
     C_AP minus the best candidate's (per scored task). None if no row has exact labels."""
     from scipy import stats
 
-    from learning.gnn_bench import pair_agreement
+    from learning.gnn.bench import pair_agreement
 
     rows = [r for r in per_task if r.get("c_ap_exact") and len(r["c_ap_exact"]) == len(r.get("c_ap_hat", ()))]
     if not rows:
@@ -224,7 +224,7 @@ class GNNNativePlanner(Planner):
         `candidates`: the CandidateCache file (None: the default one; "none": no cache)."""
         from oracles.myopic import MyopicOracle
 
-        from learning.gnn_dataset import ClauseLibrary, DatasetConfig
+        from learning.gnn.dataset import ClauseLibrary, DatasetConfig
 
         if generator not in GENERATORS:
             raise DomainError("--generator", f"'{generator}' is not one of {', '.join(GENERATORS)}")
@@ -246,7 +246,7 @@ class GNNNativePlanner(Planner):
         if self.focused is None:
             described = {"max_clauses": self.max_clauses, "min_clause_cost": self.min_cost,
                          "clauses": len(self.library), "region": "myopic plan locations + one move",
-                         "candidate_generator": {"kind": "clause-library", "source": "learning.gnn_dataset.ClauseLibrary "
+                         "candidate_generator": {"kind": "clause-library", "source": "learning.gnn.dataset.ClauseLibrary "
                                                  "(no [gnn.candidates] in domain.toml)", "order": "h_max, then library order"}}
         else:
             described = {"max_clauses": self.max_clauses,
@@ -265,7 +265,7 @@ class GNNNativePlanner(Planner):
 
         self.bm = BatchedModel(model)
         self.hmax = HMax(model, self.bm)
-        from learning.gnn_dataset import JOINT_HEURISTIC
+        from learning.gnn.dataset import JOINT_HEURISTIC
 
         if self.focused is None:
             settings = {"reference": reference, "max_clauses": self.max_clauses, "min_clause_cost": self.min_cost,
@@ -329,7 +329,7 @@ class GNNNativePlanner(Planner):
         """[(clause text, plan)] of the augmented candidates, how many were dropped, how many clauses
         the generator proposed (before the cap), and whether every search finished (no time limit cut
         one short). `plan`: the myopic plan's actions (default: recovered from the path)."""
-        from learning.gnn_dataset import JOINT_HEURISTIC, JointGoal
+        from learning.gnn.dataset import JOINT_HEURISTIC, JointGoal
         from planning.search.optimal import optimal_plans
 
         clauses, proposed = self.proposed(state, myopic_path, plan)
@@ -353,7 +353,7 @@ class GNNNativePlanner(Planner):
     def _clause_then_task(self, state: int, task, clause) -> tuple[list | None, bool]:
         """The clause's optimal plan, then the task's from there (for a joint plan that completes the
         task early), if the runner executes it in full; and whether both searches finished."""
-        from learning.gnn_dataset import JOINT_HEURISTIC
+        from learning.gnn.dataset import JOINT_HEURISTIC
         from planning.search.optimal import optimal_plan
 
         first = optimal_plan(self.bm, state, clause, time_limit=self.time_limit, heuristic=JOINT_HEURISTIC)

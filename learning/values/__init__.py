@@ -14,7 +14,8 @@ commands use:
     record(arg) -> dict             optional: what a results file's config records of it (default:
                                     {"value": "KIND[:ARG]"}); read without loading the value
 
-A new value is one module and one row here.
+A new value is one module and one row here. Beside the registry: `learning.values.exact` (the exact value
+by value iteration) and `learning.values.rank` (how well a value ranks states by preparedness).
 """
 from __future__ import annotations
 
@@ -23,11 +24,11 @@ import importlib
 from planning.errors import DomainError
 
 VALUES = {
-    "q-network": ("learning.qnet", "ValueFunction",
+    "q-network": ("learning.q.value", "ValueFunction",
                   "a learning.dqn checkpoint: q_max = max_a Q(s, τ, a), V_AP = Σ_τ P(τ) max_a Q(s, τ, a)"),
-    "gnn": ("learning.gnn_value", "GNNValue",
+    "gnn": ("learning.gnn.value", "GNNValue",
             "a learning.gnn_train checkpoint: V_AP = q_max = -Ĉ_AP / cost_scale, the one-task cost estimate"),
-    "exact": ("learning.exact_value", "ExactValue",
+    "exact": ("learning.values.exact", "ExactValue",
               "Q* by value iteration over every reachable state (small domains); exact:myopic for that horizon"),
     "zero": ("planning.value", "ZeroValue", "0 everywhere: every terminal ties, so the search plays the cheapest"),
 }
@@ -54,7 +55,7 @@ def parse(spec: str, default: str | None = None) -> tuple[str, str | None]:
     if not spec:
         raise DomainError("--value", "names no value")
     if default is None:
-        from learning.gnn_model import is_gnn_checkpoint
+        from learning.gnn.model import is_gnn_checkpoint
 
         default = "gnn" if is_gnn_checkpoint(spec) else "q-network"
     if default not in VALUES:

@@ -9,7 +9,7 @@ from planning.world.agents import Policy
 
 def checkpoint_config(path) -> dict:
     """What a results file records of a Q-network checkpoint: its path, step, evaluation and training settings."""
-    from learning.qnet import read_checkpoint
+    from learning.q.checkpoints import read_checkpoint
 
     payload = read_checkpoint(path)
     cfg = payload.get("config", {})
@@ -52,7 +52,7 @@ class GreedyValuePolicy(Policy):
 
     def start(self, model, sequence) -> None:
         if model is not self._model:
-            from learning.qnet import load_value_function
+            from learning.q.value import load_value_function
 
             self._model, self.value = model, load_value_function(self.checkpoint, model)
 

@@ -16,7 +16,7 @@ which fixes the two readings the text leaves open: the thesis's layers take no
 edge features (an `edge_dim` adds 64 x edge_dim per layer, without bias) and
 the two pools are added, not concatenated (concatenation would make the head
 129 parameters). Our graphs carry a one-hot relation per edge
-(`learning.graph`); `edge_dim=None`, the default and the thesis's setting,
+(`learning.gnn.graph`); `edge_dim=None`, the default and the thesis's setting,
 ignores it, and `edge_dim=len(relations)` uses it.
 
 `InferenceGNN` is the same function for valuation in a search. Every graph of a
@@ -93,7 +93,7 @@ class InferenceGNN:
     float rounding (a test holds it to the module's).
 
     `base`: (nodes, features) the graph every input graph's x differs from in a few columns
-    (`learning.graph.GraphEncoder.base`); a batch of whole graphs of that many nodes each then
+    (`learning.gnn.graph.GraphEncoder.base`); a batch of whole graphs of that many nodes each then
     pays the first layer only on the columns that differ. Without it, the plain product."""
 
     def __init__(self, net: GNNCostModel, base=None):

@@ -1,4 +1,4 @@
-"""The one-task GNN as a value of the protocol (`planning.value`), and the gnn-guided agent.
+"""The one-task GNN as a value of the protocol (`planning.value`).
 
     v_ap(states)        = -Ĉ_AP(s) / cost_scale     the GNN's anticipatory cost, negated
     q_max(states, task) = the same estimate         (the Bellman lane keys on it too)
@@ -9,16 +9,11 @@ by the same scale), so the Bellman key G + γ^d q_max adds like to like. The
 order the value induces, which is all the terminal selection reads, is that of
 -Ĉ_AP. The estimate is undiscounted: gamma = 1.
 
-A batch of states is encoded (`learning.graph.GraphEncoder`) and valued in one
-forward pass (`learning.gnn_model.InferenceGNN`: the module's function, with the
+A batch of states is encoded (`learning.gnn.graph.GraphEncoder`) and valued in one
+forward pass (`learning.gnn.model.InferenceGNN`: the module's function, with the
 first layer paid only on the columns where the states differ from the base
 graph); the estimates are cached per state, so a search that values a state
-twice runs the network once.
-
-`gnn-guided` (thesis Table 5.3, "GNN value, BN search") is the rl-guided agent
-(`learning.guided.ValueGuidedPlanner`) with this value in place of the
-Q-network's (`--model PATH`, short for `--value gnn:PATH`): the same search, the
-same reference plan, the same β, budget and depth cap.
+twice runs the network once. The gnn-guided agent searches with it (`learning.agents.guided`).
 """
 from __future__ import annotations
 
@@ -29,11 +24,12 @@ import torch
 
 from planning.errors import DomainError
 
-from learning.gnn_model import InferenceGNN, check_made_for, load_gnn
-from learning.guided import ValueGuidedPlanner, default_reference
+from learning.gnn.model import InferenceGNN, check_made_for, load_gnn
 from learning.reward import cost_scale
-from learning.values import HELP
 
+RECORDED = "-C_AP / cost_scale (learning.gnn_value)"
+"""What a results config records as this value. The committed gnn-guided results hold this label, which names
+the module by the path it had when they were made; a rerun's config must equal theirs, so the label stays."""
 CHUNK = 128       # graphs per forward pass: per state, InferenceGNN is fastest at 32-128 (0.19 ms) and slows
                   # past them (0.32 ms at 512, 0.56 ms at 2,000; three-room, one thread)
 
@@ -58,7 +54,7 @@ class GNNValue:
                  cache_size: int = 500_000):
         """`checkpoint`: a learning.gnn_train checkpoint path, or a (GNNCostModel, payload) pair.
         `encoder`: the layout's GraphEncoder (default: built from the model, MiniLM name embeddings)."""
-        from learning.graph import GraphEncoder
+        from learning.gnn.graph import GraphEncoder
 
         if isinstance(checkpoint, (str, Path)):
             self.net, self.payload = load_gnn(checkpoint)
@@ -97,7 +93,7 @@ class GNNValue:
     @staticmethod
     def record(path) -> dict:
         """What a results file records of the checkpoint: its training summary and what the value is."""
-        return {**model_summary(path), "value": "-C_AP / cost_scale (learning.gnn_value)"}
+        return {**model_summary(path), "value": RECORDED}
 
     def c_ap(self, states: list) -> np.ndarray:
         """Ĉ_AP per state in PDDL cost units; the states not seen before in forward passes of at most
@@ -123,29 +119,9 @@ class GNNValue:
 
 def model_summary(path) -> dict:
     """What a results file records of a GNN checkpoint."""
-    from learning.gnn_model import read_gnn_checkpoint
+    from learning.gnn.model import read_gnn_checkpoint
 
     p = read_gnn_checkpoint(path)
     cfg = p.get("config", {})
     return {"model": str(path), "epoch": p.get("epoch"), "val_l1": p.get("val_l1"), "layout": p.get("layout"),
             "data": cfg.get("data"), "seed": cfg.get("seed"), "edge_features": cfg.get("edge_features")}
-
-
-class GNNGuidedPlanner(ValueGuidedPlanner):
-    """The GNN's C_AP estimate as the value of the cost-bounded Bellman–Novelty search (Table 5.3)."""
-
-    name = "gnn-guided"
-    value_kind = "gnn"
-    checkpoint_prefix = "gnn-"
-
-    @classmethod
-    def options(cls, p) -> None:
-        which = p.add_mutually_exclusive_group(required=True)
-        which.add_argument("--model", help="GNN checkpoint (learning.gnn_train's best.pt; short for --value gnn:PATH)")
-        which.add_argument("--value", help=HELP)
-        cls.search_options(p)
-
-    @classmethod
-    def from_args(cls, args, model, reference_planner=None) -> "GNNGuidedPlanner":
-        return cls(model, args.value or args.model, args.beta, args.budget, args.depth_cap, args.reference,
-                   args.time_limit, default_reference(args, reference_planner))

@@ -89,7 +89,7 @@ class ExactValue:
     @staticmethod
     def record(horizon) -> dict:
         """What a results file records of it: the horizon (γ, R_goal and the scale are the domain's)."""
-        return {"value": "exact (learning.exact_value)", "horizon": horizon or "anticipatory"}
+        return {"value": "exact (learning.values.exact)", "horizon": horizon or "anticipatory"}
 
     # ---- the MDP ---------------------------------------------------------
     def _bootstraps(self) -> np.ndarray:

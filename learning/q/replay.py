@@ -2,13 +2,18 @@
 
 A transition is (s, τ, a, r, s', kind): s and s' packed (W uint64 words each), τ
 a task index, a a ground action (or AUTO), r in RL units, kind the bootstrap
-rule of `learning.qnet` (CONTINUE, COMPLETE, TERMINAL). Demonstrations live in
+rule (CONTINUE, COMPLETE, TERMINAL, below). Demonstrations live in
 a second, never-overwritten memory; `mixed_batch` reserves a fixed share of
 every minibatch for them (Appendix A.1, the protected demo fraction).
 """
 from __future__ import annotations
 
 import numpy as np
+
+# Transition kinds in the replay buffer: how the target bootstraps (Algorithm 1).
+CONTINUE = 0     # within the task, or the per-task timeout: bootstrap the same task (§4.1.3 a)
+COMPLETE = 1     # the task completed: myopic y = r, anticipatory y = r + γ V_AP(s')
+TERMINAL = 2     # the domain declares the episode over (e.g. the minimal example): y = r
 
 
 class Replay:

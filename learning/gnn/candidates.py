@@ -33,7 +33,7 @@ the generator: `(in-region ?x)` (a location in the region, or an object whose lo
 `(nowhere ?x)` (an object at no location: not at one, not held, not in something that is).
 `goal` is `(and ...)` of atoms and negated atoms over the domain's predicates.
 
-A domain without the table keeps the clause-library candidates of `learning.gnn_native` (see there).
+A domain without the table keeps the clause-library candidates of `learning.agents.gnn_native` (see there).
 """
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Benchmark and check of a trained GNN estimator against the exact C_AP it imitates.
 
-    python -m learning.gnn_bench --model checkpoints/gnn-faithful-three-room-seed0.pt \
+    python -m learning.gnn.bench --model checkpoints/gnn-faithful-three-room-seed0.pt \
         --data runs/gnn/three-room-faithful [--batch 50] [--repeats 20] [--exact 50] [--out FILE]
 
 On the validation states of the model's own training run (the seeded 80/20 split of
@@ -56,11 +56,11 @@ def pair_agreement(est: np.ndarray, exact: np.ndarray) -> float:
 def bench(model_path: str, data: str, domain: str, batch: int, repeats: int, n_exact: int, encoder=None) -> dict:
     """The figures of the module's docstring (`encoder`: the layout's GraphEncoder, default GNNValue's)."""
     from oracles.labelling import Labeller
-    from learning.gnn_train import split
-    from learning.gnn_value import GNNValue, collate, model_summary
+    from learning.gnn.training import split
+    from learning.gnn.value import GNNValue, collate, model_summary
 
-    from learning.gnn_dataset import read_meta
-    from learning.gnn_model import check_made_for
+    from learning.gnn.dataset import read_meta
+    from learning.gnn.model import check_made_for
 
     meta_path = Path(data) / "meta.json"
     meta = read_meta(data)

@@ -1,6 +1,6 @@
 """How well a value ranks states by preparedness: its V_AP against the exact C_AP.
 
-    python -m learning.value_rank --data runs/gnn/three-room-faithful \
+    python -m learning.values.rank --data runs/gnn/three-room-faithful \
         --value checkpoints/rl-anticipatory-three-room-seed0.pt [--value KIND:PATH ...] [--out FILE]
 
 The value-guided search uses a value only to rank the terminal states it reaches
@@ -44,7 +44,7 @@ from learning.values import HELP, load_value
 
 def agreement(v: np.ndarray, c_ap: np.ndarray) -> dict:
     """Rank agreement of a value with -C_AP over a set of states (see the module's docstring)."""
-    from learning.gnn_bench import pair_agreement
+    from learning.gnn.bench import pair_agreement
 
     if len(v) < 3:
         return {"states": int(len(v))}
@@ -58,8 +58,8 @@ def agreement(v: np.ndarray, c_ap: np.ndarray) -> dict:
 def rank(values: list, data: str, domain: str) -> dict:
     """The figures of the module's docstring, per value (a value's name, KIND:PATH, KIND or a checkpoint
     path, or any object of the Value protocol), over the dataset's labelled states."""
-    from learning.gnn_dataset import read_meta
-    from learning.gnn_model import check_made_for
+    from learning.gnn.dataset import read_meta
+    from learning.gnn.model import check_made_for
 
     meta_path = Path(data) / "meta.json"
     meta = read_meta(data)
@@ -82,7 +82,7 @@ def rank(values: list, data: str, domain: str) -> dict:
         row = {"value": name, "kind": type(value).__name__, "gamma": value.gamma}
         payload = getattr(value, "payload", None)
         if payload is not None and Path(payload.get("config", {}).get("data", "")).resolve() == Path(data).resolve():
-            from learning.gnn_train import split
+            from learning.gnn.training import split
             cfg = payload["config"]
             _, val = split(len(states), int(cfg.get("seed", 0)), float(cfg.get("val_fraction", 0.2)))
             only = np.zeros(len(states), dtype=bool)

@@ -1,0 +1,111 @@
+"""A trained Q-network as a value of the protocol (`planning.value`): greedy actions, q_max and v_ap, batched.
+
+The batched plug-in calls for searches (SPEC "Values as plug-in heuristics") are
+`ValueFunction.q_max(states, task)` and `ValueFunction.v_ap(states)`.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from planning.errors import DomainError
+
+from learning.encoding import Encoding
+
+from .checkpoints import check_domain, checkpoint_config, read_checkpoint
+from .inference import BatchedQ, NativeQ, NumpyQ, _qnet_lib
+from .network import FactoredQNet
+
+
+class ValueFunction:
+    """A trained Q-network bound to a layout's encoding: greedy actions, q_max and v_ap, batched.
+
+    Inference runs on numpy snapshots of the weights taken at construction:
+    `NumpyQ` for every action's Q (q_values, greedy), `BatchedQ` for the maxima
+    the searches ask for (q_max, v_ap); `native_q_max` hands the Bellman–Novelty
+    search the compiled q_max (`NativeQ`), built on first use.
+    """
+
+    def __init__(self, net: FactoredQNet, enc: Encoding, gamma: float = 0.97):
+        """`gamma`: the discount the network was trained with (the search discounts its prefix costs by it)."""
+        self.net, self.enc, self.gamma = net, enc, gamma
+        self.fast = NumpyQ(net)
+        self.batched = BatchedQ(net, enc)
+        self._native, self.memo = None, True
+
+    @classmethod
+    def load(cls, path, model) -> "ValueFunction":
+        """The value registry's hook (`learning.values`): the value of a learning.dqn checkpoint."""
+        if path is None:
+            raise DomainError("--value", "q-network needs a checkpoint: q-network:PATH")
+        return load_value_function(path, model)
+
+    @staticmethod
+    def record(path) -> dict:
+        """What a results file records of the checkpoint (`checkpoint_config`)."""
+        return checkpoint_config(path)
+
+    @property
+    def native(self) -> "NativeQ | None":
+        """The compiled engine, or None where there is no C compiler (or QNET_NATIVE=0)."""
+        if self._native is None:
+            lib = _qnet_lib()
+            self._native = NativeQ(self.batched, lib, self.memo) if lib is not None else False
+        return self._native or None
+
+    def set_memo(self, on: bool) -> None:
+        """Keep the compiled engine's values across calls (the default) or not (a fresh engine either way)."""
+        self.memo, self._native = bool(on), None
+
+    def native_q_max(self, task):
+        """For `planning.search.bellman_novelty`: an object whose `fn` and `ctx` are the compiled q_max of
+        this network (`bn_native_fn` of planning/search/_bn.c, task = task.index), or None."""
+        return self.native
+
+    def q_values(self, states, task) -> np.ndarray:
+        """(N, actions) Q of (state, task) for every ground action and AUTO; -inf where invalid."""
+        packed = self.enc.pack(states)
+        tasks = np.full(len(packed), _task_index(task), dtype=np.int64)
+        return self.fast(self.enc.observe(packed, tasks), self.enc.valid_for(packed, tasks))
+
+    def greedy(self, states, task) -> np.ndarray:
+        """The greedy ground action (or AUTO) per state for one task."""
+        return self.q_values(states, task).argmax(1)
+
+    def q_max(self, states, task) -> np.ndarray:
+        """max_a Q(s, τ, a) per state: the value of a state for the current task."""
+        return self.batched.q_max(states, _task_index(task))
+
+    def v_ap(self, states) -> np.ndarray:
+        """V_AP(s) = Σ_τ P(τ) max_a Q(s, τ, a) per state: the preparedness value (Eq. 3.8)."""
+        return self.batched.v_ap(states)
+
+
+def _task_index(task) -> int:
+    return task if isinstance(task, (int, np.integer)) else task.index
+
+
+
+def load_value_function(path, model) -> ValueFunction:
+    """The greedy value of a checkpoint, checked against the layout it is used on."""
+    return value_function(read_checkpoint(path), model, path)
+
+
+def value_function(payload: dict, model, path="checkpoint") -> ValueFunction:
+    """The greedy value of a loaded checkpoint payload (float32 weights), checked against the layout and
+    the domain (`check_domain`); `path` names it in errors."""
+    check_domain(path, payload, model)
+    enc = Encoding(model)
+    sig = payload.get("signature", {})
+    mine = enc.signature()
+    if sig != mine:
+        diff = [k for k in mine if sig.get(k) != mine[k]]
+        raise DomainError(path, f"trained for {sig.get('domain')}/{sig.get('layout')}, "
+                                f"not {mine['domain']}/{mine['layout']} (differs in {', '.join(diff)})")
+    d = payload["dims"]
+    net = FactoredQNet(d["obs_dim"], enc.labels, d["vocab_sizes"], d["hidden"], d["embed"], d["head_hidden"])
+    try:
+        net.load_state_dict(payload["net"])
+    except RuntimeError as e:
+        raise DomainError(path, f"weights do not fit the network ({str(e).splitlines()[0]})") from None
+    net.eval()
+    return ValueFunction(net, enc, float(payload.get("config", {}).get("gamma", 0.97)))
