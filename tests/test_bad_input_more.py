@@ -1,4 +1,4 @@
-"""More bad input (issue 32): files made for another layout or other domain content, outputs that would be
+"""More bad input: files made for another layout or other domain content, outputs that would be
 replaced silently, and the tracebacks that are one-line errors now. Tiny data only: crafted files and the
 committed checkpoints, nothing trained."""
 import fcntl

@@ -64,8 +64,8 @@ def check_domain(path, payload: dict, model) -> None:
     """A checkpoint about to be used on `model`'s layout: one recorded for another domain (its PDDL name)
     or another layout is a one-line DomainError; one trained on other content of this domain (its
     recorded domain_sha256 differs: an edited cost, a retuned reward) is a one-line warning on stderr,
-    once per file, and stays usable. A checkpoint that records no domain (those written before
-    2026-12, the committed ones among them) is checked by its layout signature alone."""
+    once per file, and stays usable. A checkpoint that records no domain (the format's first version, the committed ones among them)
+    is checked by its layout signature alone."""
     import sys
 
     from planning.domain.identity import mismatch

@@ -94,11 +94,11 @@ class Config:
     eps_schedule: str = "time-constant"
     """time-constant: ε = eps_end + (eps_start − eps_end)·exp(−step/eps_decay_steps), the authors'
     (0.40 at 100k steps, 0.10 at 300k); reach: exponential from eps_start to eps_end within
-    eps_decay_steps, then flat (this project's runs made before 2026-11-29)"""
+    eps_decay_steps, then flat (the schedule of this project's first runs, kept so they reproduce)"""
     explore: str = "factored"
     """ε's random action: factored (a valid action type uniformly, then each argument head uniformly
     among the values valid with the heads before it, the authors'); uniform (uniform over the
-    applicable ground actions, this project's runs made before 2026-11-29)"""
+    applicable ground actions, the rule of this project's first runs)"""
     target_every: int = 1_000
     """steps between target-network syncs"""
     grad_clip: float = 1.0
@@ -309,7 +309,7 @@ class Trainer:
     def __init__(self, cfg: Config, progress: bool = True):
         # -- setup: model, encodings, R_goal, seeding --------------------------------------------
         check_config(cfg)
-        torch.set_num_threads(1)            # 2 cores shared by several engineers
+        torch.set_num_threads(1)            # one thread per run: parallel runs share the cores, not a pool
         keep_freed_memory()
         self.cfg, self.progress = cfg, progress
         self.model = model = compile_domain(cfg.domain, cfg.layout)

@@ -1,4 +1,4 @@
-"""The Bellman–Novelty search as it was before the compiled kernel (issue 36): the reference it is measured against.
+"""The Bellman–Novelty search as it was before the compiled kernel: the reference it is measured against.
 
 A verbatim copy of planning/search/bellman_novelty.py at commit 6ec6ff5 (only
 the function renamed), kept unchanged: `learning.agents.bench_bn` reports the new

@@ -1,4 +1,4 @@
-"""The PDDL front end takes what Fast Downward takes (issue 33), each construct on a small folder of its own
+"""The PDDL front end takes what Fast Downward takes, each construct on a small folder of its own
 (tests/data/front_end/<name>): subtypes in a cost function, constants and task schemas naming objects, a type
 and an action of one name, derived predicates, conditional effects with unit costs, per-layout overrides, a
 classical domain wrapped as a one-task folder; what is refused is one line with file and line; the PDDL
