@@ -1,4 +1,4 @@
-"""Training and export never lose or mix work : one resume path for learning.dqn and the
+"""Training and export never lose or mix work: one resume path for learning.dqn and the
 sweeps, one trainer per run folder, an export that replaces only its own run's files and checks everything first,
 output names that stay in their folders, and checkpoints that name the domain they were trained on."""
 import json
