@@ -14,7 +14,6 @@ results/minimal-example.json.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 import time
@@ -25,6 +24,7 @@ import numpy as np
 import torch
 
 import learning.gym_env  # noqa: F401  (registers the environment ids)
+from planning import cli
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV_ID = "AnticipatoryMinimal-grid-v0"
@@ -71,12 +71,10 @@ def train(horizon: str, steps: int, seed: int) -> tuple:
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = cli.parser(__doc__.splitlines()[0], domain=False, layout=False, seed=True)
     p.add_argument("--steps", type=int, default=40_000, help="environment steps per horizon (default: %(default)s)")
-    p.add_argument("--seed", type=int, default=0)
     p.add_argument("--episodes", type=int, default=1000, help="episodes measured (default: %(default)s)")
     p.add_argument("--horizons", default="anticipatory,myopic")
-    p.add_argument("--out", default=None, help="results JSON to write")
     args = p.parse_args()
     try:
         import sb3_contrib  # noqa: F401
@@ -102,4 +100,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    cli.run(main)

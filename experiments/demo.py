@@ -39,8 +39,7 @@ from planning.world.sequences import Sequence, load
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0])
-    p.add_argument("--sequence", type=int, default=0, help="canonical sequence (default: %(default)s)")
+    p = cli.parser(__doc__.splitlines()[0], sequence=True)
     p.add_argument("--tasks", type=int, default=50, help="its first N tasks (default: all 50)")
     p.add_argument("--value", default=None,
                    help=f"{HELP} (default: q-network:checkpoints/rl-anticipatory-<layout>-seed0.pt)")

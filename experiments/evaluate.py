@@ -15,7 +15,6 @@ replaced unless --force is given. The runner is `planning.world.runner`.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 
 from oracles.command import RunOptions, figures, play, run_options, what_ran
@@ -28,18 +27,15 @@ from .workers import Job, play_over_workers
 
 
 def main() -> None:
-    first = argparse.ArgumentParser(add_help=False)
-    first.add_argument("--agent")
-    first.add_argument("--list-agents", action="store_true")
-    known, _ = first.parse_known_args()
+    known = cli.peek(agent=None, list_agents=False)
     if known.list_agents:
         print(describe())
         return
-    p = cli.parser(__doc__.splitlines()[0], sequences=True)
+    p = cli.parser(__doc__.splitlines()[0], sequences=True, progress=True, workers=True,
+                   helps={"workers": "local processes, one sequence each at a time (default: 1, serial)",
+                          "ray": "sequences as Ray tasks: a local instance, or the cluster at RAY_ADDRESS"})
     p.add_argument("--agent", required=True, help=f"one of: {', '.join(AGENTS)} (--list-agents describes them)")
     p.add_argument("--list-agents", action="store_true", help="print the registered agents and exit")
-    p.add_argument("--workers", type=int, default=1, help="local processes, one sequence each at a time (default: 1, serial)")
-    p.add_argument("--ray", action="store_true", help="sequences as Ray tasks: a local instance, or the cluster at RAY_ADDRESS")
     run_options(p)
     cls = agent_class(known.agent) if known.agent else None
     if cls is not None:

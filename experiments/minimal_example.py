@@ -122,11 +122,10 @@ def run(domain: str, seed: int, steps: int | None, out_dir: str, episodes: int =
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0], seed=True)
+    p = cli.parser(__doc__.splitlines()[0], seed=True, progress=True)
     p.set_defaults(domain="domains/minimal")
     p.add_argument("--steps", type=int, default=None, help="training steps per agent (default: domain.toml)")
     p.add_argument("--runs", default="runs/minimal", help="folder of the two training runs")
-    p.add_argument("--no-progress", action="store_true")
     args = p.parse_args()
     r = run(args.domain, args.seed, args.steps, args.runs, layout=args.layout, progress=not args.no_progress)
     print(f"{'agent':13s} {'Q(place A)':>11s} {'Q(place B)':>11s} {'gap':>7s} {'share B':>8s}   "

@@ -24,7 +24,6 @@ that writes them, and none of its runs is played.
 """
 from __future__ import annotations
 
-import argparse
 import shlex
 import subprocess
 import sys
@@ -124,15 +123,12 @@ def playable(ctx: Context, layouts) -> list[str]:
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = cli.parser(__doc__.splitlines()[0], layout=False, progress=True,
+                   helps={"out": "report (default: docs/results.md; docs/results-<domain>.md for another domain)"})
     p.add_argument("--layouts", default=None, help="comma-separated layouts (default: the restaurant's "
                                                    f"{','.join(LAYOUTS)}; every layout of another domain's folder)")
     p.add_argument("--report-only", action="store_true", help="only read the results and write the report")
-    p.add_argument("--out", default=None, type=cli.writable_file,
-                   help="report (default: docs/results.md; docs/results-<domain>.md for another domain)")
-    p.add_argument("--domain", default="domains/restaurant", help="domain folder (default: %(default)s)")
     p.add_argument("--discount-sweep", action="store_true", help="also train the Table A.5 runs (long)")
-    p.add_argument("--no-progress", action="store_true")
     args = p.parse_args()
     ctx = Context(args.domain)
     restaurant = is_thesis_domain(ctx)

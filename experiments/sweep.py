@@ -245,11 +245,9 @@ def main() -> None:
     one_thread()                  # as in the workers: a serial sweep computes what a parallel one does
     from learning.q.training import Config, file_in, file_name
 
-    p = cli.parser(__doc__.splitlines()[0], sequences=True)
+    p = cli.parser(__doc__.splitlines()[0], sequences=True, progress=True, workers=True,
+                   helps={"workers": "local processes (default: 1, serially here)"})
     p.add_argument("--kind", choices=("train", "guided"), default="train", help="what to sweep (default: %(default)s)")
-    p.add_argument("--workers", type=int, default=1, help="local processes (default: 1, serially here)")
-    p.add_argument("--ray", action="store_true", help="Ray tasks: a local instance, or the cluster at RAY_ADDRESS")
-    p.add_argument("--no-progress", action="store_true")
     p.add_argument("--force", action="store_true", help="replace results files made otherwise (guided), exported "
                                                         "checkpoints and figures of other runs (train --deploy)")
     train = p.add_argument_group("--kind train (a comma list or range makes an axis of the grid)")

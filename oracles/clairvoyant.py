@@ -139,7 +139,7 @@ def proven_optimal(window: dict) -> bool:
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0], sequences=True)
+    p = cli.parser(__doc__.splitlines()[0], sequences=True, progress=True)
     ClairvoyantOracle.options(p)
     run_options(p)
     args = p.parse_args()

@@ -27,7 +27,7 @@ def reference_path(model) -> str:
 
 @dataclass(frozen=True)
 class RunOptions:
-    """How an evaluation plays and writes its results: the flags `run_options` declares, and --out."""
+    """How an evaluation plays and writes its results: the flags `run_options` declares, --out and --no-progress."""
 
     out: str | None = None
     """the results file (None: the agent's default, `planning.world.results.default_out`)"""
@@ -42,12 +42,13 @@ class RunOptions:
 
     @classmethod
     def from_args(cls, args) -> "RunOptions":
-        """The options of a parsed command line (`planning.cli.parser` with `run_options`)."""
+        """The options of a parsed command line (`planning.cli.parser` with `progress`, and `run_options`)."""
         return cls(args.out, args.force, args.strict, args.failure_protocol, not args.no_progress)
 
 
 def run_options(p) -> None:
-    """--force, --strict, --failure-protocol and --no-progress, the options of every evaluation (`RunOptions`)."""
+    """--force, --strict and --failure-protocol, the options of every evaluation (`RunOptions`) beside the
+    shared --out and --no-progress of its `planning.cli.parser`."""
     p.add_argument("--force", action="store_true",
                    help="play every sequence asked for again, replacing a finished results file (even one made otherwise)")
     p.add_argument("--strict", action="store_true", help="exit non-zero if any planner timed out or crashed")
@@ -55,7 +56,6 @@ def run_options(p) -> None:
                    help="a failed task is completed by the optimal fallback, which is executed (default, SPEC.md), "
                         "or abandoned where it stopped (the thesis's protocol; no improvement unless every task "
                         "succeeds)")
-    p.add_argument("--no-progress", action="store_true", help="no progress bars (logs of background runs)")
 
 
 def play(model, agent, ids, options: RunOptions, before=None):

@@ -78,9 +78,9 @@ def benchmark_labelling(model, states: list[int], heuristics=("pdb",), fd_time_l
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0])
+    p = cli.parser(__doc__.splitlines()[0], seed=True,
+                   helps={"seed": "seed of the cached myopic rollout the states come from"})
     p.add_argument("--states", type=int, default=20, help="faithful states to label (default: %(default)s)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the cached myopic rollout the states come from")
     p.add_argument("--heuristic", default="pdb",
                    help="labelling heuristics to time, comma-separated: pdb, lmcut, lmcut-pc, hmax, blind "
                         "(default: %(default)s)")

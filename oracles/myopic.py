@@ -139,7 +139,7 @@ def type_table(result: dict) -> str:
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0], sequences=True)
+    p = cli.parser(__doc__.splitlines()[0], sequences=True, progress=True)
     MyopicOracle.options(p)
     run_options(p)
     args = p.parse_args()

@@ -70,9 +70,9 @@ def benchmark_planner(model, sequence_id: int = 0, n: int = 20, time_limit: floa
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0])
+    p = cli.parser(__doc__.splitlines()[0], sequence=True,
+                   helps={"sequence": "canonical sequence whose tasks are planned"})
     p.add_argument("--calls", type=int, default=20, help="planner calls (default: %(default)s)")
-    p.add_argument("--sequence", type=int, default=0, help="canonical sequence whose tasks are planned")
     p.add_argument("--time-limit", type=float, default=600.0, help="Fast Downward seconds per call")
     args = p.parse_args()
     model = compile_domain(args.domain, args.layout)

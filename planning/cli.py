@@ -1,4 +1,8 @@
-"""The command-line contract shared by every tool (SPEC.md): --domain, --layout, --sequences, --seed, --out."""
+"""The command-line contract shared by every tool (SPEC.md): --domain, --layout, --sequences, --seed, --out.
+
+Every command builds its parser with `parser`, which declares the options several commands share
+(each once, here); a command adds only its own.
+"""
 from __future__ import annotations
 
 import argparse
@@ -14,23 +18,73 @@ from pathlib import Path
 from planning.errors import DomainError
 
 
-def parser(description: str, sequences: bool = False, seed: bool = False, out: str = "file") -> argparse.ArgumentParser:
-    """An argument parser with the common options; --sequences and --seed only where a tool uses them.
+DEFAULT_DOMAIN = "domains/restaurant"
+"""The domain folder read where none is named (--domain, `compile_domain`, the configs): the thesis's restaurant."""
 
-    --out is checked as it is parsed, before any work starts: `out` "file" (a
-    results file) or "folder" (a folder the tool writes into).
+SHARED_HELP = {
+    "domain": "domain folder (default: %(default)s)",
+    "layout": "layout name (default: the folder's first)",
+    "sequences": "canonical sequences, e.g. 0-9 or 1,3,6",
+    "sequence": "canonical sequence (default: %(default)s)",
+    "seed": "random seed (default: %(default)s)",
+    "no_progress": "no progress bars (logs of background runs)",
+    "workers": "local processes (default: 1, serial)",
+    "ray": "Ray tasks: a local instance, or the cluster at RAY_ADDRESS",
+}
+"""The help of each shared option, by dest."""
+OUT_HELP = {"file": "results JSON to write", "folder": "results folder to write"}
+"""The help of --out, by what it names."""
+
+
+def parser(description: str, *, domain: bool = True, layout: bool = True, sequences: bool = False,
+           sequence: bool = False, seed: bool = False, out: str | None = "file", progress: bool = False,
+           workers: bool = False, helps: dict[str, str] | None = None) -> argparse.ArgumentParser:
+    """The argument parser of a command, with the shared options it asks for.
+
+    --domain and --layout unless `domain` or `layout` is False (a tool that reads
+    another input, or names its layouts its own way); --sequences, --sequence,
+    --seed, --no-progress (`progress`), --workers and --ray (`workers`) only
+    where a tool uses them. --out is checked as it is parsed, before any work
+    starts: `out` "file" (a results file), "folder" (a folder the tool writes
+    into) or None (no --out). `helps` rewords the help of a shared option (by
+    dest, "out" for --out) where a tool gives it a meaning of its own; its
+    name, default and type stay the shared ones.
     """
+    words = {**SHARED_HELP, "out": OUT_HELP.get(out), **(helps or {})}
     p = argparse.ArgumentParser(description=description)
-    p.add_argument("--domain", default="domains/restaurant", help="domain folder (default: %(default)s)")
-    p.add_argument("--layout", default=None, help="layout name (default: the folder's first)")
+    if domain:
+        p.add_argument("--domain", default=DEFAULT_DOMAIN, help=words["domain"])
+    if layout:
+        p.add_argument("--layout", default=None, help=words["layout"])
     if sequences:
-        p.add_argument("--sequences", default="0-9", help="canonical sequences, e.g. 0-9 or 1,3,6")
+        p.add_argument("--sequences", default="0-9", help=words["sequences"])
+    if sequence:
+        p.add_argument("--sequence", type=int, default=0, help=words["sequence"])
     if seed:
-        p.add_argument("--seed", type=int, default=0, help="random seed (default: %(default)s)")
-    check = writable_folder if out == "folder" else writable_file
-    p.add_argument("--out", default=None, type=check,
-                   help="results folder to write" if out == "folder" else "results JSON to write")
+        p.add_argument("--seed", type=int, default=0, help=words["seed"])
+    if out:
+        p.add_argument("--out", default=None, type=writable_folder if out == "folder" else writable_file,
+                       help=words["out"])
+    if progress:
+        p.add_argument("--no-progress", action="store_true", help=words["no_progress"])
+    if workers:
+        p.add_argument("--workers", type=int, default=1, help=words["workers"])
+        p.add_argument("--ray", action="store_true", help=words["ray"])
     return p
+
+
+def peek(**flags) -> argparse.Namespace:
+    """The values of a few options on the command line, read before its parser is built: what that parser
+    declares may depend on them (an agent's own options). `flags` maps each dest to its default, False
+    making it a switch; every other word on the line is left for the parser."""
+    p = argparse.ArgumentParser(add_help=False)
+    for dest, default in flags.items():
+        flag = "--" + dest.replace("_", "-")
+        if default is False:
+            p.add_argument(flag, action="store_true")
+        else:
+            p.add_argument(flag, default=default)
+    return p.parse_known_args()[0]
 
 
 def parse_ids(text: str) -> list[int]:

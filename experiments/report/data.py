@@ -24,7 +24,7 @@ from pathlib import Path
 
 from experiments.registry import AGENTS, agent_class
 from experiments.report.specs import Row, Run
-from planning import atomic
+from planning import atomic, cli
 from planning.atomic import read_json
 from planning.errors import DomainError
 from planning.world.sequences import COUNT, DEVELOPMENT
@@ -125,7 +125,7 @@ def run_protocol(run: Run) -> str:
 class Context:
     """What reading the runs needs once: the compiled layouts and the agents built from the rows' commands."""
 
-    def __init__(self, domain: str = "domains/restaurant"):
+    def __init__(self, domain: str = cli.DEFAULT_DOMAIN):
         self.domain = domain
         self._models: dict = {}
 
@@ -138,12 +138,10 @@ class Context:
 
     def agent(self, run: Run):
         """The agent `experiments.evaluate` builds from the run's command line."""
-        from planning import cli
-
         from oracles.command import run_options
 
         cls = agent_class(run.agent)
-        p = cli.parser("reproduce", sequences=True)
+        p = cli.parser("reproduce", sequences=True, progress=True)
         p.add_argument("--agent")
         run_options(p)                     # --failure-protocol and the other options every evaluation takes
         cls.options(p)

@@ -18,6 +18,7 @@ from pathlib import Path
 from tarski.fstrips import UniversalEffect
 from tarski.syntax import CompoundTerm, Constant
 
+from planning.cli import DEFAULT_DOMAIN
 from planning.domain.axioms import Axioms, stratify
 from planning.domain.folder import DomainSource, read_domain
 from planning.errors import DomainError
@@ -26,7 +27,7 @@ from planning.domain.model import Model, Op
 from planning.domain.tasks import compile_tasks, probability
 
 
-def compile_domain(folder: str | Path = "domains/restaurant", layout: str | None = None) -> Model:
+def compile_domain(folder: str | Path = DEFAULT_DOMAIN, layout: str | None = None) -> Model:
     """The compiled model of one layout (the folder's first layout if none is named)."""
     folder = Path(folder)
     if layout is None:

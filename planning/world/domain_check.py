@@ -33,7 +33,6 @@ are fine), 2 on any error.
 """
 from __future__ import annotations
 
-import argparse
 import re
 import sys
 from dataclasses import dataclass, field
@@ -41,6 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
+from planning import cli
 from planning.errors import DomainError
 
 KNOWN_TABLES = ("layouts", "tasks", "reset", "coordinates", "heads", "stream", "reward", "training", "search", "gnn")
@@ -631,10 +631,9 @@ def summary_lines(s: LayoutSummary) -> list[str]:
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = cli.parser(__doc__.splitlines()[0], out=None,
+                   helps={"layout": "check only this layout (default: every layout)"})
     p.add_argument("folder", nargs="?", default=None, help="domain folder (default: --domain)")
-    p.add_argument("--domain", default="domains/restaurant", help="domain folder (default: %(default)s)")
-    p.add_argument("--layout", default=None, help="check only this layout (default: every layout)")
     p.add_argument("--no-costs", action="store_true", help="skip the myopic costs from the start state")
     p.add_argument("--time-limit", type=float, default=20.0,
                    help="seconds for the myopic costs of one layout (default: %(default)s)")
@@ -656,6 +655,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    from planning import cli
-
     cli.run(main)

@@ -19,7 +19,6 @@ An existing DIR is refused unless it holds exactly the files this command writes
 """
 from __future__ import annotations
 
-import argparse
 import re
 import shutil
 import tempfile
@@ -124,11 +123,11 @@ def wrap(domain: Path, problem: Path, out: Path, layout: str | None = None) -> P
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = cli.parser(__doc__.splitlines()[0], domain=False, out="folder",
+                   helps={"layout": "the layout's name (default: the problem file's name)",
+                          "out": "the domain folder to write"})
     p.add_argument("domain", nargs="?", help="the PDDL domain file")
     p.add_argument("problem", nargs="?", help="the PDDL problem file")
-    p.add_argument("--out", default=None, type=cli.writable_folder, help="the domain folder to write")
-    p.add_argument("--layout", default=None, help="the layout's name (default: the problem file's name)")
     args = p.parse_args()
     usage = "python -m planning.world.from_problem DOMAIN PROBLEM --out DIR"
     what = f" as layout '{args.layout}'" if args.layout else ""
