@@ -10,7 +10,6 @@ DIR/best.pt; prints the run's last figures.
 """
 from __future__ import annotations
 
-import argparse
 from dataclasses import fields
 
 from planning import cli
@@ -19,12 +18,11 @@ from learning.q.training import HORIZONS, Config, last_row, make_config, train_r
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    cli.add_dataclass_options(p, Config, skip=("horizon",))
+    p = cli.parser(__doc__.splitlines()[0], domain=False, layout=False, out=None, progress=True)
+    cli.add_dataclass_options(p, Config, skip=("horizon",))     # --domain, --layout, --seed, --out: Config's
     p.add_argument("--horizon", required=True, choices=HORIZONS, help=cli.field_docs(Config)["horizon"])
     p.add_argument("--fresh", action="store_true", help="ignore an existing last.pt and start over (the run's "
                                                         "metrics.jsonl, best.pt and last.pt are replaced)")
-    p.add_argument("--no-progress", action="store_true")
     args = p.parse_args()
     cfg = make_config(**{f.name: getattr(args, f.name) for f in fields(Config)})
     trainer = train_run(cfg, fresh=args.fresh, progress=not args.no_progress)

@@ -50,7 +50,6 @@ as it is, with a one-line note on stderr.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -449,11 +448,11 @@ def _done(path: Path, written: list) -> str:
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = cli.parser(__doc__.splitlines()[0], domain=False, layout=False,
+                   helps={"out": "compact checkpoint (default: checkpoints/rl-<horizon>-<layout>-seed<N>.pt, "
+                                 "checkpoints/gnn-<variant>-<layout>-seed<N>.pt)"})
     p.add_argument("run", help="a learning.dqn run folder (best.pt, metrics.jsonl), a learning.gnn_train one "
                                "(best.pt, summary.json) or a learning.gnn_dataset folder (meta.json)")
-    p.add_argument("--out", help="compact checkpoint (default: checkpoints/rl-<horizon>-<layout>-seed<N>.pt, "
-                                 "checkpoints/gnn-<variant>-<layout>-seed<N>.pt)")
     p.add_argument("--figures", help="key figures JSON (default: results/training-<checkpoint name without rl->.json)")
     p.add_argument("--force", action="store_true", help="replace a checkpoint or figures file exported from another "
                                                         "run (or one that is no export)")

@@ -15,7 +15,7 @@ from learning.gnn.dataset import DatasetConfig, build, default_out
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0], seed=True, out="folder")
+    p = cli.parser(__doc__.splitlines()[0], seed=True, out="folder", progress=True)
     p.add_argument("--augmented", action="store_true", help="add counterfactual prepared states")
     p.add_argument("--n-states", type=int, default=2000, help="faithful states (default: %(default)s)")
     p.add_argument("--n-prepared", type=int, default=None, help="prepared states (default: 3 x n-states)")
@@ -26,7 +26,6 @@ def main() -> None:
                    help="take the labels another gnn_dataset folder already computed (repeatable)")
     p.add_argument("--force", action="store_true",
                    help="replace a finished dataset in --out made with other settings or domain content")
-    p.add_argument("--no-progress", action="store_true")
     args = p.parse_args()
     if args.n_states < 1:
         raise DomainError("--n-states", f"{args.n_states} is not a positive number of states")

@@ -15,12 +15,11 @@ from learning.gnn.training import TrainConfig, train
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0], seed=True, out="folder")
+    p = cli.parser(__doc__.splitlines()[0], seed=True, out="folder", progress=True)
     p.add_argument("--data", required=True, help="a learning.gnn_dataset folder")
     p.add_argument("--epochs", type=int, default=40, help="epochs (default: %(default)s; the thesis: 40 faithful, 12 augmented)")
     p.add_argument("--edge-features", action="store_true",
                    help="let the layers read the edges' relation one-hot (the thesis's take no edge features)")
-    p.add_argument("--no-progress", action="store_true")
     args = p.parse_args()
     if not args.out:
         raise DomainError("--out", "an output folder is required")

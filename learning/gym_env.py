@@ -72,6 +72,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from planning.cli import DEFAULT_DOMAIN
 from planning.domain.compiler import compile_domain
 from planning.domain.folder import layouts
 from planning.errors import DomainError
@@ -103,7 +104,7 @@ class AnticipatoryEnv(gym.Env):
 
     metadata = {"render_modes": ["ansi"], "render_fps": 4}
 
-    def __init__(self, domain: str = "domains/restaurant", layout: str | None = None, *, factored: bool = False,
+    def __init__(self, domain: str = DEFAULT_DOMAIN, layout: str | None = None, *, factored: bool = False,
                  observation: str = "box", horizon: str = "anticipatory", invalid_penalty: float | None = None,
                  goal_reward: float | None = None, max_actions: int | None = None,
                  tasks_per_reset: int | None = None, render_mode: str | None = None):

@@ -156,12 +156,11 @@ def benchmark(model, value, tasks: list, reset_seed: int, budget: int, beta: flo
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0], seed=True)
+    p = cli.parser(__doc__.splitlines()[0], seed=True, sequence=True)
     which = p.add_mutually_exclusive_group()
     which.add_argument("--checkpoint", default=None, help="Q-network checkpoint (short for --value q-network:PATH)")
     which.add_argument("--value", default="zero", help=f"{HELP} (default: %(default)s)")
     p.add_argument("--tasks", type=int, default=20, help="tasks to play (default: %(default)s)")
-    p.add_argument("--sequence", type=int, default=0, help="canonical sequence (default: %(default)s)")
     p.add_argument("--stream", action="store_true", help="a stream drawn with --seed instead of the sequence")
     p.add_argument("--budget", type=int, default=None, help="expansions per task (default: the thesis's)")
     p.add_argument("--beta", type=float, default=None, help="cost slack (default: the thesis's)")

@@ -19,7 +19,6 @@ Times are this process's CPU time with one torch thread.
 """
 from __future__ import annotations
 
-import argparse
 import platform
 import time
 from pathlib import Path
@@ -123,14 +122,13 @@ def bench(model_path: str, data: str, domain: str, batch: int, repeats: int, n_e
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = cli.parser(__doc__.splitlines()[0], layout=False,
+                   helps={"out": "results JSON (default: results/bench-gnn-<model name>.json)"})
     p.add_argument("--model", required=True, help="GNN checkpoint (learning.gnn_train's best.pt)")
     p.add_argument("--data", required=True, help="the learning.gnn_dataset folder it was trained on")
-    p.add_argument("--domain", default="domains/restaurant", help="domain folder (default: %(default)s)")
     p.add_argument("--batch", type=int, default=50, help="states per inference batch (default: %(default)s)")
     p.add_argument("--repeats", type=int, default=20, help="timed repeats (default: %(default)s)")
     p.add_argument("--exact", type=int, default=50, help="states labelled exactly for the reference (default: %(default)s)")
-    p.add_argument("--out", help="results JSON (default: results/bench-gnn-<model name>.json)")
 
     def run():
         args = p.parse_args()

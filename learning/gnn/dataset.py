@@ -80,7 +80,7 @@ class DatasetConfig:
     """What gnn_dataset builds; defaults follow the thesis (2,000 faithful states)."""
 
     layout: str = "three-room"
-    domain: str = "domains/restaurant"
+    domain: str = cli.DEFAULT_DOMAIN
     n_states: int = 2000            # faithful states
     augmented: bool = False
     n_prepared: int | None = None   # prepared states added when augmented (default 3 x n_states: 8,000 in all)

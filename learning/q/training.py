@@ -65,7 +65,7 @@ HORIZONS = ("myopic", "anticipatory")
 class Config:
     """Training configuration; defaults are the thesis's Table A.2."""
 
-    domain: str = "domains/restaurant"
+    domain: str = cli.DEFAULT_DOMAIN
     """domain folder"""
     layout: str | None = None
     """layout name (default: the domain's first)"""

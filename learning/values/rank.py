@@ -26,7 +26,6 @@ trained on these states is scored on its validation split only.
 """
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
@@ -99,12 +98,11 @@ def rank(values: list, data: str, domain: str) -> dict:
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = cli.parser(__doc__.splitlines()[0], layout=False,
+                   helps={"out": "results JSON (default: results/value-rank-<dataset folder name>.json)"})
     p.add_argument("--data", required=True, help="a learning.gnn_dataset folder (states labelled with exact C_AP)")
     p.add_argument("--value", action="append", required=True,
                    help=f"{HELP}; a bare PATH is a Q-network or GNN checkpoint (repeatable)")
-    p.add_argument("--domain", default="domains/restaurant", help="domain folder (default: %(default)s)")
-    p.add_argument("--out", help="results JSON (default: results/value-rank-<dataset folder name>.json)")
 
     def run():
         args = p.parse_args()
