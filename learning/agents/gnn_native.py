@@ -121,18 +121,18 @@ class CandidateCache:
     for long stretches (they mostly keep the myopic plan), so every run after the first replays most
     of its planning. One JSON line per entry, appended in one write (runs in parallel can share a file;
     an interrupted write leaves at most a half last line, which is skipped); the first line names the
-    domain files' digests and the settings, and a file of another domain or settings is a one-line error.
+    domain's identity (`planning.domain.identity`: the content of its files, not their comments or
+    layout) and the settings, and a file of another domain or settings is a one-line error.
     Only candidates whose searches all finished are kept (a time limit's answer is not the planner's).
     """
 
-    FORMAT = 1
+    FORMAT = 2
 
     def __init__(self, model, path, settings: dict):
-        from planning.atomic import sha256
+        from planning.domain.identity import identity
 
         self.model, self.path = model, Path(path)
-        self.header = {"format": self.FORMAT, "domain": model.name, "layout": model.layout,
-                       "files": {k: sha256(v) for k, v in sorted(model.files.items())}, **settings}
+        self.header = {"format": self.FORMAT, **identity(model), "layout": model.layout, **settings}
         self.table: dict = {}
         self.hits = self.misses = 0
         if self.path.is_file():

@@ -193,3 +193,24 @@ def test_native_selection_takes_a_preparation_when_the_exact_c_ap_says_it_pays(t
     for a in r.plan:
         end = model.apply(end, a)
     assert ("at", "apple", "b" if chosen != "myopic" else "a") in model.true_atoms(end)
+
+
+def test_the_candidate_cache_keys_on_the_domain_content_not_its_comments(tmp_path):
+    """A comment edited in domain.toml keeps the cache; a changed task probability makes it a one-line error."""
+    from learning.agents.gnn_native import CandidateCache
+
+    folder = tmp_path / "minimal"
+    shutil.copytree(Path(__file__).resolve().parents[2] / "domains" / "minimal", folder)
+    cache, settings = tmp_path / "c.jsonl", {"max_clauses": 10}
+    CandidateCache(compile_domain(folder, "grid"), cache, settings)
+    toml = folder / "domain.toml"
+    toml.write_text("# a comment that changes nothing\n" + toml.read_text())
+    CandidateCache(compile_domain(folder, "grid"), cache, settings)
+    with pytest.raises(DomainError, match="another domain or settings"):
+        CandidateCache(compile_domain(folder, "grid"), cache, {"max_clauses": 5})
+    text = toml.read_text()
+    assert text.count("probability = 0.0") == text.count("probability = 1.0") == 1     # clear(c), deliver
+    toml.write_text(text.replace("probability = 0.0", "probability = 0.25").replace("probability = 1.0",
+                                                                                    "probability = 0.75"))
+    with pytest.raises(DomainError, match="another domain or settings"):
+        CandidateCache(compile_domain(folder, "grid"), cache, settings)
