@@ -20,7 +20,6 @@ import time
 from pathlib import Path
 
 import gymnasium as gym
-import numpy as np
 import torch
 
 import learning.gym_env  # noqa: F401  (registers the environment ids)

@@ -23,12 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
+from learning.reward import calibration_path, cost_scale
 from oracles.rollouts import cache_path, cached_rollout, load_records, replay
 from planning import cli
 from planning.atomic import OutputLock, write_json
-from planning.domain.identity import identity, mismatch
 from planning.domain.compiler import compile_domain
-from learning.reward import calibration_path, cost_scale
+from planning.domain.identity import identity, mismatch
 from planning.errors import DomainError
 
 # Table A.2 / §5.2.4; the thesis gives D_max only for the two-room restaurant.
@@ -97,8 +97,8 @@ def report(result: dict) -> str:
         f"D_max  = {result['d_max']:.2f}   (thesis: {f'{d_th:.2f}' if d_th else implied})",
         f"R_goal = {1 + result['margin']:g} x D_max = {result['r_goal']:.2f}   "
         f"(thesis: {th.get('r_goal', 'n/a')})",
-        f"D quantiles: " + ", ".join(f"{q}: {v:.2f}" for q, v in result["d_quantiles"].items()),
-        f"D_max by task type: " + ", ".join(f"{t} {d:.2f}" for t, d in result["d_max_by_type"].items()),
+        "D quantiles: " + ", ".join(f"{q}: {v:.2f}" for q, v in result["d_quantiles"].items()),
+        "D_max by task type: " + ", ".join(f"{t} {d:.2f}" for t, d in result["d_max_by_type"].items()),
         f"argmax: task {a['index']} {a['task']}, {a['actions']} actions, cost {a['cost']} (PDDL):",
     ]
     lines += [f"  {i + 1:2d}. {name}  [{c}]" for i, (name, c) in enumerate(zip(a["plan"], a["costs"]))]

@@ -34,7 +34,8 @@ from tqdm import tqdm
 
 from experiments.report import domain, thesis
 from experiments.report.data import ALL, Context, curve, load_run, run_protocol, writer_pid
-from experiments.report.specs import LAYOUTS, discount_runs, rows as row_specs
+from experiments.report.specs import LAYOUTS, discount_runs
+from experiments.report.specs import rows as row_specs
 from planning import cli
 from planning.atomic import read_json, write_json, write_text
 from planning.errors import DomainError

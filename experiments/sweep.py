@@ -136,8 +136,8 @@ def train_items(args, grid: dict, settings: dict) -> tuple[list, list, list]:
     """(points, run names, work items) of a training grid, every point's settings checked as learning.dqn
     checks its own and every name made from them checked to name a file in its folder: a bad value
     (`--eps-schedule ../../x`) stops with a one-line error before anything is written."""
-    from learning.q.training import file_in, file_name, run_name
     from learning.export import rl_name
+    from learning.q.training import file_in, file_name, run_name
 
     axes = list(grid)
     points = [dict(zip(axes, combo)) for combo in itertools.product(*grid.values())]

@@ -12,9 +12,8 @@ from __future__ import annotations
 
 from dataclasses import fields
 
-from planning import cli
-
 from learning.q.training import HORIZONS, Config, last_row, make_config, train_run
+from planning import cli
 
 
 def main() -> None:

@@ -59,16 +59,15 @@ from pathlib import Path
 
 import numpy as np
 
+from learning.plain import full_precision, to_half
+from learning.q.checkpoints import DOMAIN_KEYS, read_checkpoint, save_checkpoint
+from learning.q.training import LEGACY, Config, bound_suffix, file_in, file_name, read_metrics
+from learning.q.value import value_function
 from planning import cli
 from planning.atomic import OutputLock, sha256, write_json
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 from planning.parallel import results_provenance
-
-from learning.plain import full_precision, to_half
-from learning.q.checkpoints import DOMAIN_KEYS, read_checkpoint, save_checkpoint
-from learning.q.training import LEGACY, Config, bound_suffix, file_in, file_name, read_metrics
-from learning.q.value import value_function
 
 MILESTONES = (50_000, 100_000, 250_000, 500_000)
 PRECISION = "float16"

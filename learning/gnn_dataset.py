@@ -8,10 +8,9 @@ from __future__ import annotations
 
 import time
 
+from learning.gnn.dataset import DatasetConfig, build, default_out
 from planning import cli
 from planning.errors import DomainError
-
-from learning.gnn.dataset import DatasetConfig, build, default_out
 
 
 def main() -> None:

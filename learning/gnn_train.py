@@ -8,10 +8,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from learning.gnn.training import TrainConfig, train
 from planning import cli
 from planning.errors import DomainError
-
-from learning.gnn.training import TrainConfig, train
 
 
 def main() -> None:

@@ -217,7 +217,7 @@ class AnticipatoryEnv(gym.Env):
         if self._world is None or self._world.task is None:
             raise RuntimeError("call reset() first (the episode has ended)")
         self.action_value(action)                          # a ValueError before anything changes
-        world, task = self._world, self._task
+        world = self._world
         a = self.ground_action(action)
         completed = abandoned = False
         if a is None:

@@ -10,7 +10,6 @@ the file; nothing of it runs.
 """
 from __future__ import annotations
 
-import pickle
 import re
 import warnings
 from pathlib import Path

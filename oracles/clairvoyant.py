@@ -25,16 +25,15 @@ from pathlib import Path
 from oracles.command import RunOptions, figures, play, run_options, what_ran
 from oracles.myopic import MyopicOracle
 from planning import cli
-from planning.errors import DomainError
-from planning.heuristics import describe, names
 from planning.domain.batched import BatchedModel
 from planning.domain.compiler import compile_domain
+from planning.errors import DomainError
+from planning.heuristics import describe, names
 from planning.search.joint import JointSearch
 from planning.search.optimal import optimal_plan
 from planning.world.agents import Planner, Reply
 from planning.world.runner import play_task
 from planning.world.task_stream import PersistentWorld
-
 
 
 class ClairvoyantOracle(Planner):

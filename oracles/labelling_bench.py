@@ -71,7 +71,7 @@ def benchmark_labelling(model, states: list[int], heuristics=("pdb",), fd_time_l
         total = time.perf_counter() - t0
         out["fast_downward"] = {"seconds": round(total, 2), "calls": calls,
                                 "states_per_s": round(len(states) / total, 4), "per_state": fd_rows}
-        for name, r in out["ours"].items():
+        for r in out["ours"].values():
             r["ratio_vs_fast_downward"] = round(r["states_per_s"] / out["fast_downward"]["states_per_s"], 2)
         out["equal_costs"] = True
     return out

@@ -13,17 +13,16 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Iterator
 
+from oracles.command import RunOptions, figures, play, run_options, what_ran
 from planning import cli
-from planning.external import fast_downward as fd
 from planning.domain.batched import BatchedModel
 from planning.domain.compiler import compile_domain
-from planning.search.optimal import optimal_plan
 from planning.errors import DomainError
+from planning.external import fast_downward as fd
+from planning.search.optimal import optimal_plan
 from planning.world.agents import PlanFunction, Planner, Reply
 from planning.world.runner import play_task
 from planning.world.task_stream import PersistentWorld, TaskStream
-
-from oracles.command import RunOptions, figures, play, run_options, what_ran
 
 PLANNERS = ("fast-downward", "internal")
 

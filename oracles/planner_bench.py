@@ -11,9 +11,9 @@ import time
 
 from planning import cli
 from planning.atomic import write_json
-from planning.parallel import results_provenance
 from planning.domain.batched import BatchedModel
 from planning.domain.compiler import compile_domain
+from planning.parallel import results_provenance
 
 
 def planner_pairs(model, sequence_id: int, n: int) -> list:

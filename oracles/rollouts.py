@@ -34,7 +34,6 @@ from planning.atomic import write_json
 from planning.domain.compiler import compile_domain
 from planning.domain.identity import identity, mismatch
 from planning.errors import DomainError
-
 from planning.world.agents import Planner, Reply
 
 from .myopic import MyopicOracle, TaskRecord, rollout, type_table

@@ -17,7 +17,6 @@ from pathlib import Path
 
 from planning.errors import DomainError
 
-
 DEFAULT_DOMAIN = "domains/restaurant"
 """The domain folder read where none is named (--domain, `compile_domain`, the configs): the thesis's restaurant."""
 

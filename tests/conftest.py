@@ -1,4 +1,3 @@
-import numpy as np
 import pytest
 
 from planning.domain.compiler import compile_domain

@@ -1,11 +1,18 @@
 """Bad input: a one-line error naming the file or thing and the reason."""
+import json
+import os
+import pickle
 import shutil
 import subprocess
 import sys
+from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
+import torch
 
-from planning.domain.compiler import compile_source
+from planning import cli
+from planning.domain.compiler import _compile_cached, compile_source
 from planning.domain.folder import read_domain
 from planning.errors import DomainError
 
@@ -97,16 +104,6 @@ def test_command_line_exits_with_one_line(folder):
 
 
 # ---- every command's bad input, in-process: exit 2, one line naming the thing, finished files untouched ----
-import json
-import os
-import pickle
-from pathlib import Path
-from types import SimpleNamespace
-
-import torch
-
-from planning import cli
-from planning.domain.compiler import _compile_cached
 
 RESULTS = "results/myopic-oracle-internal-two-room.json"    # a finished run of `--agent myopic-oracle --planner internal`
 

@@ -126,9 +126,9 @@ def test_gnn_train_checks_the_dataset_against_its_layout(minimal, tmp_path, caps
 
 def test_new_datasets_and_models_record_the_domain_identity(minimal, tmp_path):
     from learning.gnn.dataset import save_dataset
+    from learning.gnn.graph import GraphEncoder
     from learning.gnn.model import GNNCostModel
     from learning.gnn.training import TrainConfig, _payload
-    from learning.gnn.graph import GraphEncoder
 
     states = list(dict.fromkeys(minimal.random_walk_states(4, seed=0)))
     labels = {s: (10.0, [10] * len(minimal.tasks), 0.0) for s in states}
@@ -143,9 +143,9 @@ def test_new_datasets_and_models_record_the_domain_identity(minimal, tmp_path):
 
 
 def test_a_model_of_other_domain_content_loads_with_a_one_line_warning(minimal, capsys):
+    from learning.gnn.graph import GraphEncoder
     from learning.gnn.model import GNNCostModel
     from learning.gnn.value import GNNValue
-    from learning.gnn.graph import GraphEncoder
 
     enc = GraphEncoder(minimal, embed=zero_embed)
     net = GNNCostModel(enc.num_features, width=4, layers=1).eval()
@@ -279,10 +279,10 @@ def test_an_unknown_key_of_a_tasks_table(tmp_path):
 
 def test_a_cut_short_dataset_meta_is_one_line(minimal, tmp_path, capsys):
     from learning.gnn import bench as gnn_bench
-    from learning.values import rank as value_rank
     from learning.gnn.dataset import load_dataset, save_dataset
-    from learning.gnn_train import main
     from learning.gnn.graph import GraphEncoder
+    from learning.gnn_train import main
+    from learning.values import rank as value_rank
 
     states = list(dict.fromkeys(minimal.random_walk_states(4, seed=0)))
     save_dataset(tmp_path, minimal, states, {s: (1.0, [1] * len(minimal.tasks), 0.0) for s in states},

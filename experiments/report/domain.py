@@ -26,8 +26,19 @@ from experiments import stats
 from experiments.report import provenance
 from experiments.report.data import ALL, DEVELOPMENT, HELD_OUT, improvement, load_rows
 from experiments.report.specs import HORIZONS, Row, Run
-from experiments.report.tables import (MISSING, SHARE_TEXT, dagger, files_cell, num, pct, pm, seeds_cell, share,
-                                       status, table)
+from experiments.report.tables import (
+    MISSING,
+    SHARE_TEXT,
+    dagger,
+    files_cell,
+    num,
+    pct,
+    pm,
+    seeds_cell,
+    share,
+    status,
+    table,
+)
 
 CLAIRVOYANT_K = (2, 3)
 COMPARISONS = (("anticipatory-rl-guided", "myopic-rl-guided"), ("anticipatory-rl-guided", "myopic-oracle"),
@@ -153,7 +164,7 @@ def learned(results: dict) -> list[str]:
             if f is None:
                 body.append([layout, deployment, horizon, status(rr), "—", "—", seeds_cell(rr)])
                 continue
-            sd = lambda k, s=1: (f[f"{k}_std"] * s if f[f"{k}_std"] is not None else None)
+            sd = lambda k, s=1, f=f: (f[f"{k}_std"] * s if f[f"{k}_std"] is not None else None)
             body.append([layout, deployment, horizon, pm(100 * f["success"], sd("success", 100)),
                          pm(f["steps"], sd("steps"), 2), pm(f["cost"], sd("cost")) + dagger(rr), seeds_cell(rr)])
     return table(["layout", "deployment", "horizon", "success %", "steps/task", "cost/task", "seeds"], body)

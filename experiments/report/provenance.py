@@ -41,7 +41,7 @@ def config_summary(cfg: dict) -> str:
 def files_table(results: dict) -> list[str]:
     """One row per results file a row reads, used or not."""
     body = []
-    for layout, rows in results.items():
+    for rows in results.values():
         for rr in rows.values():
             for x in rr.loaded:
                 if x.data is None:

@@ -10,8 +10,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from experiments.report.specs import LAYOUTS, THESIS, THESIS_MINIMAL
 from experiments.report.data import mean_std
+from experiments.report.specs import LAYOUTS, THESIS, THESIS_MINIMAL
 from experiments.report.tables import num, pct, table
 
 
@@ -320,7 +320,7 @@ def training_runs() -> list[str]:
         if d is None or "horizon" not in d:          # a GNN run's figures go with the GNN estimator's table
             continue
         at = d.get("at", {})
-        cell = lambda m, k, digits=2: num(at[m][k], digits) if m in at and at[m].get(k) is not None else "—"
+        cell = lambda m, k, digits=2, at=at: num(at[m][k], digits) if m in at and at[m].get(k) is not None else "—"
         best = d.get("best_greedy") or {}
         body.append([f"`{path.name}`", d.get("layout"), d.get("horizon"), d.get("seed"),
                      " / ".join(str(d.get(k, "—")) for k in ("eps_schedule", "explore", "demo_planner"))

@@ -14,9 +14,20 @@ import numpy as np
 
 from experiments import stats
 from experiments.report.data import ALL, DEVELOPMENT, HELD_OUT, RowResult, curve, improvement
-from experiments.report.specs import (ABLATION, AGENTS, COMPARISONS, LEARNED, TABLE_5_2, THESIS, THESIS_DISCOUNT,
-                                      THESIS_HELD_OUT, THESIS_PROTOCOL, THESIS_SHARE_STATED, THESIS_STATS,
-                                      discount_runs)
+from experiments.report.specs import (
+    ABLATION,
+    AGENTS,
+    COMPARISONS,
+    LEARNED,
+    TABLE_5_2,
+    THESIS,
+    THESIS_DISCOUNT,
+    THESIS_HELD_OUT,
+    THESIS_PROTOCOL,
+    THESIS_SHARE_STATED,
+    THESIS_STATS,
+    discount_runs,
+)
 
 MISSING = "[commands](#runs-not-yet-made)"
 SHARE_TEXT = ("`(C_myopic − C) / (C_myopic − C_clairvoyant-K)`: the part of the clairvoyant oracle's saving an agent "
@@ -153,7 +164,7 @@ def table_a_4(results: dict) -> list[str]:
             if f is None:
                 ours = [status(rr), "—", "—"]
             else:
-                sd = lambda k, s=1: (f[f"{k}_std"] * s if f[f"{k}_std"] is not None else None)
+                sd = lambda k, s=1, f=f: (f[f"{k}_std"] * s if f[f"{k}_std"] is not None else None)
                 ours = [pm(100 * f["success"], sd("success", 100)), pm(f["steps"], sd("steps"), 2),
                         pm(f["cost"], sd("cost")) + dagger(rr)]
             body.append([layout, deployment, horizon, *ours, seeds_cell(rr),
@@ -198,7 +209,6 @@ def clairvoyant_share(results: dict) -> list[str]:
     body = []
     for layout, rows in results.items():
         ref = rows["myopic-oracle"].figures()
-        t = THESIS[layout]
         for key in AGENTS:
             rr = rows[key]
             f = rr.figures()

@@ -17,8 +17,8 @@ import numpy as np
 from experiments.report import figures as figs
 from experiments.report import provenance, reference, tables
 from experiments.report.data import Context, curve, improvement, load_rows, sha256
-from experiments.report.specs import (AGENTS, THESIS, THESIS_MINIMAL, discount_runs, rl_run_dir, rows as row_specs,
-                                      training_logs)
+from experiments.report.specs import AGENTS, THESIS, THESIS_MINIMAL, discount_runs, rl_run_dir, training_logs
+from experiments.report.specs import rows as row_specs
 
 NOTES = Path("docs/results-notes.md")
 """Hand-kept notes with no generator yet: included verbatim as the report's appendix."""

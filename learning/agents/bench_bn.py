@@ -36,13 +36,13 @@ import time
 
 import numpy as np
 
-from planning import cli
-from planning.atomic import write_json
-from planning.parallel import results_provenance
-from planning.domain.batched import BatchedModel
-from planning.domain.compiler import compile_domain
 from learning.agents.guided import search_defaults
 from learning.values import HELP, load_value, parse
+from planning import cli
+from planning.atomic import write_json
+from planning.domain.batched import BatchedModel
+from planning.domain.compiler import compile_domain
+from planning.parallel import results_provenance
 from planning.search.bellman_novelty import DEPTH_CAP, PREFETCH, bellman_novelty_search
 from planning.search.bellman_novelty_reference import bellman_novelty_search_reference
 from planning.search.optimal import optimal_plan

@@ -42,12 +42,11 @@ from pathlib import Path
 
 import numpy as np
 
-from planning.errors import DomainError
-from planning.world.agents import Planner, Reply
-
+from learning.agents.greedy import checkpoint_run_name
 from learning.gnn.candidates import FocusedCandidates, Region, actions_along
 from learning.gnn.value import GNNValue, model_summary
-from learning.agents.greedy import checkpoint_run_name
+from planning.errors import DomainError
+from planning.world.agents import Planner, Reply
 
 GENERATORS = ("domain", "clause-library")
 """`--generator`: the domain's declared candidates, or the dataset's clause library regardless."""
@@ -222,9 +221,8 @@ class GNNNativePlanner(Planner):
         """`estimate(states) -> Ĉ_AP array`: the scorer (default: the checkpoint's GNNValue.c_ap).
         `max_clauses`: None for the domain's [gnn.candidates] max_clauses (else MAX_CLAUSES).
         `candidates`: the CandidateCache file (None: the default one; "none": no cache)."""
-        from oracles.myopic import MyopicOracle
-
         from learning.gnn.dataset import ClauseLibrary, DatasetConfig
+        from oracles.myopic import MyopicOracle
 
         if generator not in GENERATORS:
             raise DomainError("--generator", f"'{generator}' is not one of {', '.join(GENERATORS)}")

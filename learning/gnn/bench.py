@@ -29,9 +29,9 @@ from scipy import stats
 
 from planning import cli
 from planning.atomic import write_json
-from planning.parallel import results_provenance
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
+from planning.parallel import results_provenance
 
 
 def cpu(fn, repeats: int) -> float:
@@ -54,12 +54,11 @@ def pair_agreement(est: np.ndarray, exact: np.ndarray) -> float:
 
 def bench(model_path: str, data: str, domain: str, batch: int, repeats: int, n_exact: int, encoder=None) -> dict:
     """The figures of the module's docstring (`encoder`: the layout's GraphEncoder, default GNNValue's)."""
-    from oracles.labelling import Labeller
-    from learning.gnn.training import split
-    from learning.gnn.value import GNNValue, collate, model_summary
-
     from learning.gnn.dataset import read_meta
     from learning.gnn.model import check_made_for
+    from learning.gnn.training import split
+    from learning.gnn.value import GNNValue, collate, model_summary
+    from oracles.labelling import Labeller
 
     meta_path = Path(data) / "meta.json"
     meta = read_meta(data)

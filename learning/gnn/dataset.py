@@ -62,12 +62,12 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from oracles.rollouts import faithful_states
 from planning import cli
 from planning.atomic import OutputLock, write_json
+from planning.domain.grounding import atom_text
 from planning.domain.identity import identity, mismatch
 from planning.errors import DomainError
-from oracles.rollouts import faithful_states
-from planning.domain.grounding import atom_text
 
 CHECKPOINT_SECONDS = 10.0
 CONTENT_KEYS = ("n_states", "augmented", "n_prepared", "seed", "prepared_streams", "min_clause_cost",

@@ -38,8 +38,8 @@ from pathlib import Path
 import numpy as np
 
 from planning.atomic import write_json
-from planning.errors import DomainError
 from planning.domain.roles import agent_relations, position_predicates
+from planning.errors import DomainError
 
 NODE_TYPES = ("agent", "room", "location", "object")
 AGENT_NAME = "robot"

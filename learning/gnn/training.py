@@ -28,10 +28,9 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from learning.gnn.model import GNNCostModel, parameter_count, read_gnn_checkpoint, save_gnn_checkpoint
 from planning.atomic import write_text
 from planning.errors import DomainError
-
-from learning.gnn.model import GNNCostModel, parameter_count, read_gnn_checkpoint, save_gnn_checkpoint
 
 
 @dataclass

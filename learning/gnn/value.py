@@ -22,10 +22,9 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from planning.errors import DomainError
-
 from learning.gnn.model import InferenceGNN, check_made_for, load_gnn
 from learning.reward import cost_scale
+from planning.errors import DomainError
 
 RECORDED = "-C_AP / cost_scale (learning.gnn_value)"
 """What a results config records as this value. The committed gnn-guided results hold this label, which names

@@ -41,8 +41,8 @@ import torch
 
 from planning import cli
 from planning.atomic import write_json
-from planning.parallel import results_provenance
 from planning.domain.compiler import compile_domain
+from planning.parallel import results_provenance
 
 from .replay import COMPLETE, mixed_batch
 from .targets import BoundaryCache, td_targets

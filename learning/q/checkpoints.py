@@ -8,14 +8,12 @@ from pathlib import Path
 
 import torch
 
+from learning.encoding import Encoding
+from learning.plain import from_plain, full_precision, load_plain, to_plain
 from planning.atomic import write_bytes
 from planning.errors import DomainError
 
-from learning.encoding import Encoding
-from learning.plain import from_plain, full_precision, load_plain, to_plain
-
 from .network import FactoredQNet
-
 
 DOMAIN_KEYS = ("domain", "domain_sha256", "domain_files")
 """What a checkpoint records of the domain it was trained on (`planning.domain.identity`)."""

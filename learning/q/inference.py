@@ -93,7 +93,7 @@ class NumpyQ:
         v = (np.maximum(parts[:, :H], 0.0) @ self.value_w + self.value_b)[:, 0]
         rows, acts = np.nonzero(valid)
         q = v[rows]
-        for d, size in enumerate(self.table.sizes):
+        for d in range(len(self.table.sizes)):
             P = self.table.uses[d].shape[1]
             pid, val = self.pid[d][acts], self.val[d][acts]
             flat = rows * P + pid

@@ -103,12 +103,12 @@ class FactoredQNet(nn.Module):
         t, H = self.table, self.head_hidden
         labels = np.stack([v.numpy() for v in t.val], 1)
         uniq, first, lab_of_act = np.unique(labels, axis=0, return_index=True, return_inverse=True)
-        A, L = len(labels), len(uniq)
+        L = len(uniq)
         self.lab_of_act = torch.from_numpy(lab_of_act.reshape(-1).astype(np.int64))
         self.act_by_label = np.argsort(lab_of_act.reshape(-1), kind="stable")        # actions grouped by label
         self.label_start = np.searchsorted(lab_of_act.reshape(-1)[self.act_by_label], np.arange(len(uniq)))
         inst = []                                       # (head, prefix id, values that follow it)
-        for d, V in enumerate(t.sizes):
+        for d in range(len(t.sizes)):
             pid, val = t.pid[d].numpy()[first], uniq[:, d]
             for p in range(t.uses[d].shape[1]):
                 vals = np.unique(val[pid == p])

@@ -12,9 +12,8 @@ import numpy as np
 import torch
 from torch import nn
 
-from planning.errors import DomainError
-
 from learning.encoding import Encoding
+from planning.errors import DomainError
 
 from .network import FactoredQNet, masked_max
 from .replay import COMPLETE, CONTINUE

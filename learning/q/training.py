@@ -40,6 +40,7 @@ import torch
 import torch.nn.functional as F
 from tqdm import tqdm
 
+from learning.encoding import Encoding
 from learning.reward import cost_scale, goal_reward, step_reward
 from planning import cli
 from planning.atomic import OutputLock, write_text
@@ -47,8 +48,6 @@ from planning.domain.compiler import compile_domain
 from planning.domain.identity import identity
 from planning.errors import DomainError
 from planning.world.task_stream import PersistentWorld, TaskStream
-
-from learning.encoding import Encoding
 
 from .checkpoints import check_domain, network_payload, read_checkpoint, save_checkpoint
 from .inference import LiveGreedy
@@ -281,7 +280,6 @@ def greedy_evaluation(vf: ValueFunction, model, seed: int, n_tasks: int, gamma: 
                       scale: float) -> dict:
     """Success rate, PDDL cost, actions and discounted return per task of the greedy policy on a seeded stream."""
     stream, world = TaskStream(model, seed), PersistentWorld(model)
-    enc = vf.enc
     returns = []
     for _ in range(n_tasks):
         task, reset = stream.next()
@@ -465,7 +463,7 @@ class Trainer:
             self._next_task()
         bar = tqdm(total=cfg.steps, initial=self.step, desc=f"dqn {self.model.layout} {cfg.horizon}",
                    unit="step", disable=not self.progress, smoothing=0.05)
-        row, t0, s0, u0, updates = {}, time.perf_counter(), self.step, 0, 0
+        row, t0, s0, updates = {}, time.perf_counter(), self.step, 0
         while self.step < cfg.steps:
             self.env_step(epsilon(cfg, self.step))                                # lines 5-7, 21, 25-27
             if self.step >= cfg.learning_starts and self.step % cfg.train_every == 0:

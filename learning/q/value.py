@@ -7,9 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from planning.errors import DomainError
-
 from learning.encoding import Encoding
+from planning.errors import DomainError
 
 from .checkpoints import check_domain, checkpoint_config, read_checkpoint
 from .inference import BatchedQ, NativeQ, NumpyQ, _qnet_lib

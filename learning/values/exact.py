@@ -173,7 +173,7 @@ class ExactValue:
 
     def _iterate(self, tol: float, max_iter: int) -> int:
         V = np.zeros((len(self.states), len(self.tasks)))
-        for it in range(1, max_iter + 1):
+        for it in range(1, max_iter + 1):  # noqa: B007 (the sweeps it took are returned)
             new = self._backup(V)
             delta = np.max(np.abs(new - V)) if new.size else 0.0
             V = new

@@ -32,13 +32,12 @@ import numpy as np
 import torch
 from scipy import stats
 
+from learning.values import HELP, load_value
 from planning import cli
 from planning.atomic import write_json
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 from planning.parallel import results_provenance
-
-from learning.values import HELP, load_value
 
 
 def agreement(v: np.ndarray, c_ap: np.ndarray) -> dict:

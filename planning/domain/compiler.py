@@ -21,10 +21,10 @@ from tarski.syntax import CompoundTerm, Constant
 from planning.cli import DEFAULT_DOMAIN
 from planning.domain.axioms import Axioms, stratify
 from planning.domain.folder import DomainSource, read_domain
-from planning.errors import DomainError
-from planning.domain.grounding import GroundVariant, Grounder, atom_text, parse_atom_text
+from planning.domain.grounding import Grounder, GroundVariant, atom_text, parse_atom_text
 from planning.domain.model import Model, Op
 from planning.domain.tasks import compile_tasks, probability
+from planning.errors import DomainError
 
 
 def compile_domain(folder: str | Path = DEFAULT_DOMAIN, layout: str | None = None) -> Model:

@@ -12,8 +12,15 @@ from itertools import product
 
 from tarski.fstrips import AddEffect, DelEffect, UniversalEffect
 from tarski.syntax import Constant, Variable
-from tarski.syntax.formulas import (Atom, CompoundFormula, Connective, Contradiction,
-                                    QuantifiedFormula, Quantifier, Tautology)
+from tarski.syntax.formulas import (
+    Atom,
+    CompoundFormula,
+    Connective,
+    Contradiction,
+    QuantifiedFormula,
+    Quantifier,
+    Tautology,
+)
 
 from planning.errors import DomainError
 

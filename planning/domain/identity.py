@@ -21,8 +21,6 @@ import tomllib
 from functools import lru_cache
 from pathlib import Path
 
-from planning.errors import DomainError
-
 FILE_DIGITS = 16
 """Hex digits kept of each file's sha256 (enough to name the file that changed)."""
 

@@ -14,9 +14,9 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from planning.errors import DomainError
 from planning.domain.grounding import atom_text, parse_atom_text
 from planning.domain.tasks import Task, TaskDistribution
+from planning.errors import DomainError
 
 
 class Op(NamedTuple):

@@ -17,9 +17,9 @@ import subprocess
 import sys
 import tempfile
 import time
-from pathlib import Path
 from dataclasses import dataclass, field
 from enum import Enum
+from pathlib import Path
 
 from unified_planning.engines import PlanGenerationResultStatus as UPStatus
 from unified_planning.shortcuts import OneshotPlanner

@@ -21,8 +21,15 @@ from itertools import count
 
 from tarski.fstrips import AddEffect, DelEffect, UniversalEffect
 from tarski.syntax import CompoundTerm, Constant, Variable
-from tarski.syntax.formulas import (Atom, CompoundFormula, Connective, Contradiction,
-                                    QuantifiedFormula, Quantifier, Tautology)
+from tarski.syntax.formulas import (
+    Atom,
+    CompoundFormula,
+    Connective,
+    Contradiction,
+    QuantifiedFormula,
+    Quantifier,
+    Tautology,
+)
 
 from planning.domain.grounding import atom_text
 from planning.errors import DomainError

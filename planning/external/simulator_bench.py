@@ -18,9 +18,9 @@ import numpy as np
 
 from planning import cli
 from planning.atomic import write_json
-from planning.parallel import results_provenance
 from planning.domain.batched import BatchedModel
 from planning.domain.compiler import compile_domain
+from planning.parallel import results_provenance
 
 
 def reachable_states(model, n: int, seed: int, walk: int = 64) -> list[int]:

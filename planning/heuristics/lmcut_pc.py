@@ -31,7 +31,6 @@ import itertools
 import numpy as np
 
 
-
 def _bits(mask: int) -> list[int]:
     return [i for i in range(mask.bit_length()) if mask >> i & 1]
 

@@ -40,9 +40,8 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from planning.domain.batched import BatchedModel
+from planning.domain.batched import BatchedModel, satisfied
 from planning.errors import DomainError
-from planning.domain.batched import satisfied
 from planning.states import INF_64, StateTable, state_keys
 
 CHUNK = 1 << 14             # abstract states expanded per numpy call

@@ -24,7 +24,8 @@ import time
 
 import numpy as np
 
-from planning.states import INF_64 as INF, ClosedStates, StateTable, cheapest_unique
+from planning.states import INF_64 as INF
+from planning.states import ClosedStates, StateTable, cheapest_unique
 
 SUCCESSOR_CHUNK = 8192    # parents per successor call of a level under a time limit
 H_CHUNK = 256             # states in the first heuristic call under a time limit (doubled while cheap)

@@ -5,9 +5,9 @@ from pathlib import Path
 import pytest
 
 from experiments.random_policy import RandomPolicy
+from planning.errors import DomainError
 from planning.world.agents import Planner, Policy, Reply
 from planning.world.runner import evaluate, play_sequence
-from planning.errors import DomainError
 from planning.world.sequences import Sequence, generate, load
 
 

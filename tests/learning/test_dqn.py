@@ -4,10 +4,9 @@ import json
 import numpy as np
 import pytest
 
+from learning.q.replay import COMPLETE, CONTINUE, TERMINAL, Replay, mixed_batch
 from learning.q.training import Config, Trainer, bound_suffix, domain_defaults, epsilon, random_action
-from learning.q.replay import COMPLETE, CONTINUE, TERMINAL
 from learning.q.value import ValueFunction
-from learning.q.replay import Replay, mixed_batch
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 from tests.conftest import MINIMAL
@@ -110,9 +109,9 @@ def test_factored_exploration_draws_the_type_first():
 
 def test_protected_demo_fraction():
     agent, demos = Replay(1000, 1), Replay(100, 1)
-    for i in range(1000):
+    for _ in range(1000):
         agent.add(np.zeros(1, np.uint64), 0, 1, 0.0, np.zeros(1, np.uint64), CONTINUE)
-    for i in range(100):
+    for _ in range(100):
         demos.add(np.zeros(1, np.uint64), 0, 2, 0.0, np.zeros(1, np.uint64), CONTINUE)
     b = mixed_batch(agent, demos, 128, 0.25, np.random.default_rng(0))
     assert (b["actions"] == 2).sum() == 32 and len(b["actions"]) == 128

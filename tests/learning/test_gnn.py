@@ -5,18 +5,26 @@ import pickle
 import numpy as np
 import pytest
 import torch
+from test_graph import fake_embed
 
-from learning.gnn.dataset import DatasetConfig, label_states, load_dataset, save_dataset
-from learning.gnn.model import (THESIS_FEATURES, THESIS_PARAMETERS, GNNCostModel, InferenceGNN, load_gnn,
-                                parameter_count, read_gnn_checkpoint, save_gnn_checkpoint)
-from learning.gnn.candidates import Region
 from learning.agents.gnn_native import GNNNativePlanner, candidate_accuracy, select
+from learning.gnn.candidates import Region
+from learning.gnn.dataset import DatasetConfig, label_states, load_dataset, save_dataset
+from learning.gnn.graph import GraphEncoder
+from learning.gnn.model import (
+    THESIS_FEATURES,
+    THESIS_PARAMETERS,
+    GNNCostModel,
+    InferenceGNN,
+    load_gnn,
+    parameter_count,
+    read_gnn_checkpoint,
+    save_gnn_checkpoint,
+)
 from learning.gnn.training import TrainConfig, build_model, evaluate_l1, split, train
 from learning.gnn.value import GNNValue
-from learning.gnn.graph import GraphEncoder
 from planning.errors import DomainError
 from planning.value import Value
-from test_graph import fake_embed
 
 
 def test_parameter_count_is_the_thesis_number():
@@ -268,6 +276,7 @@ def test_compact_gnn_checkpoint_predicts_as_the_full_one(dataset, tmp_path):
     """learning.export on a GNN run: float16 weights, about half the bytes, float32 again on load, the same Ĉ_AP
     to float16 rounding; its figures are the run's summary."""
     from torch_geometric.loader import DataLoader
+
     from learning.export import default_names, export_gnn, is_gnn_run
     s = train(TrainConfig(data=str(dataset), seed=0, epochs=2), tmp_path / "run", progress=False)
     assert is_gnn_run(tmp_path / "run")

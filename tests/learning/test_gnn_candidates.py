@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from learning.gnn.candidates import FocusedCandidates, actions_along, parse_formula
 from learning.agents.gnn_native import GNNNativePlanner
+from learning.gnn.candidates import FocusedCandidates, actions_along, parse_formula
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 

@@ -1,9 +1,9 @@
 """The GNN dataset: states from myopic rollouts (and prepared ones), labelled with C_AP, saved and read back."""
 import json
 
-import numpy as np
 import pytest
 import torch
+from test_graph import fake_embed
 
 from learning.gnn.dataset import ClauseLibrary, DatasetConfig, JointGoal, label_states, load_dataset, save_dataset
 from learning.gnn.graph import GraphEncoder
@@ -11,7 +11,6 @@ from oracles.labelling import Labeller
 from oracles.myopic import MyopicOracle, rollout
 from oracles.rollouts import record_states
 from planning.errors import DomainError
-from test_graph import fake_embed
 
 
 def oracle(model):

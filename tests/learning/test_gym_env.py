@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-from learning.gym_env import ROOT, AnticipatoryEnv, register_envs
+from learning.gym_env import ROOT, register_envs
 from learning.reward import step_reward
 
 

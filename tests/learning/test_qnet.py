@@ -308,7 +308,7 @@ def reference_forward(net, obs, valid):
     v = net.value(torch.relu(parts[:, :H]))[:, 0]
     rows, acts = valid.nonzero(as_tuple=True)
     q = v[rows]
-    for d, size in enumerate(net.table.sizes):
+    for d in range(len(net.table.sizes)):
         P = net.table.uses[d].shape[1]
         pid, val = net.table.pid[d][acts], net.table.val[d][acts]
         flat = rows * P + pid
@@ -419,7 +419,7 @@ def test_dense_heads_give_the_reference_q_and_gradients(restaurant):
     assert ref["q"][fin].abs().max() > 1.0                                     # the heads are not trivial
     torch.testing.assert_close(new["q"][fin], ref["q"][fin], rtol=1e-5, atol=1e-5)
     for g in (new, taken):
-        for k, p in net.named_parameters():
+        for k, _ in net.named_parameters():
             torch.testing.assert_close(g[k], ref[k], rtol=1e-4, atol=1e-6, msg=k)
     assert ref["out.0.weight"].abs().sum() > 0 and ref["prefix_tables.1.1.weight"].abs().sum() > 0
 
@@ -521,8 +521,8 @@ def test_live_greedy_acts_as_the_forward_and_follows_the_weights(restaurant):
 def test_slot_cache_gives_the_same_targets_and_observations(two_room, enc):
     """Per-slot encodings and target values: the same targets and (s, τ) rows as computing them
     afresh, after slots are rewritten and after the target network changes (a sync)."""
-    from learning.q.targets import SlotCache
     from learning.q.replay import Replay, mixed_batch
+    from learning.q.targets import SlotCache
     online, target = trained_like(enc, 6), trained_like(enc, 7)
     agent, demos = Replay(40, enc.n_words), Replay(30, enc.n_words)
     fill = lambda memory, n, seed: [memory.add(b["states"][i], b["tasks"][i], b["actions"][i], b["rewards"][i],
@@ -557,8 +557,8 @@ def test_slot_cache_gives_the_same_targets_and_observations(two_room, enc):
 
 def test_empty_batches_and_no_row_to_value(two_room, enc):
     """No rows at all, and (with both caches warm) no row for the target network: the same targets."""
-    from learning.q.targets import SlotCache
     from learning.q.replay import Replay, mixed_batch
+    from learning.q.targets import SlotCache
     net = trained_like(enc, 9)
     valid = torch.from_numpy(enc.valid_for(enc.pack(two_room.random_walk_states(1, seed=2)), [0]))[:0]
     assert net(torch.zeros(0, enc.obs_dim), valid).shape == (0, enc.n_actions)

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from learning.q.training import read_metrics
 from learning.q.checkpoints import read_checkpoint, save_checkpoint
+from learning.q.training import read_metrics
 from learning.q.value import load_value_function
 from planning import cli
 from planning.atomic import sha256

@@ -35,8 +35,8 @@ def checkpoint(minimal, tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def gnn(minimal, tmp_path_factory):
-    from learning.gnn.model import GNNCostModel, save_gnn_checkpoint
     from learning.gnn.graph import GraphEncoder
+    from learning.gnn.model import GNNCostModel, save_gnn_checkpoint
 
     names = GraphEncoder(minimal).feature_names
     net = GNNCostModel(len(names), width=8)

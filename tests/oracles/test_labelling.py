@@ -6,9 +6,9 @@ import sys
 import pytest
 
 from oracles.labelling import Labeller, read_state
-from planning.external import fast_downward as fd
-from planning.errors import DomainError
 from planning.domain.grounding import atom_text
+from planning.errors import DomainError
+from planning.external import fast_downward as fd
 from planning.search.optimal import optimal_plan
 
 # Hops between the restaurant's locations (shared/restaurant.md); a move costs 25 x hops.
@@ -141,9 +141,10 @@ def test_command_writes_json(tmp_path):
 @pytest.mark.slow
 def test_costs_equal_fast_downward_full_sample(three_room):
     """Six myopic-rollout states x all 48 tasks: every cost equals Fast Downward's blind A*."""
-    from oracles.rollouts import record_states
-    from oracles.myopic import rollout
     from test_gnn_dataset import oracle
+
+    from oracles.myopic import rollout
+    from oracles.rollouts import record_states
 
     records = list(rollout(three_room, oracle(three_room), seed=3, n_tasks=4))
     states = list(dict.fromkeys(record_states(records)))[:6]

@@ -11,7 +11,6 @@ from oracles import labelling
 from oracles.labelling import ReachablePairs, check_possible, reachable_states
 from planning import cli
 from planning.domain.compiler import compile_domain
-from planning.errors import DomainError
 from planning.heuristics.lmcut_pc import MutexPairs
 from planning.search.optimal import uniform_cost_search
 

@@ -7,9 +7,9 @@ import pytest
 
 from oracles import rollouts
 from oracles.myopic import MyopicOracle, rollout
-from planning.world.agents import Planner, Reply
 from oracles.rollouts import RememberingOracle, cache_path, cached_rollout
 from planning.errors import DomainError
+from planning.world.agents import Planner, Reply
 
 
 def fields(records):

@@ -35,8 +35,8 @@ def _checkpoint(layout: str) -> Path:
 @pytest.fixture(scope="module")
 def values(restaurant):
     pytest.importorskip("torch")
-    from planning.parallel import one_thread
     from learning.q.value import load_value_function
+    from planning.parallel import one_thread
 
     one_thread()
     return load_value_function(_checkpoint(restaurant.layout), restaurant)

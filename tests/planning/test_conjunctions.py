@@ -1,11 +1,11 @@
 """LM-cut on P^C (planning.heuristics.lmcut_pc): mutexes, the pantry round trip, and labels equal to plain LM-cut's."""
 import numpy as np
 
-from planning.heuristics.lmcut_pc import ConjunctionLMCut, MutexPairs, agent_pairs
 from oracles.labelling import Labeller
 from planning.domain.batched import BatchedModel
 from planning.heuristics.hmax import goal_literals
 from planning.heuristics.lmcut import LMCut
+from planning.heuristics.lmcut_pc import ConjunctionLMCut, MutexPairs, agent_pairs
 
 
 def atom(model, *key):

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from planning.external import fast_downward as fd
 from planning.domain.batched import BatchedModel
+from planning.external import fast_downward as fd
 from planning.search.optimal import optimal_plan
 from tests.examples import SERVE_WATER_ACTIONS, START_COSTS
 

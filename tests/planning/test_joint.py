@@ -2,6 +2,7 @@
 import re
 
 import pytest
+
 from planning.domain.batched import BatchedModel
 from planning.external.fast_downward import run_planner
 from planning.heuristics.hmax import goal_literals
@@ -122,9 +123,9 @@ def test_water_then_coffee_matches_fast_downward(two_room, joint):
 
 
 def test_clairvoyant_k1_reproduces_the_myopic_oracle(two_room):
-    from planning.world.runner import play_sequence
     from oracles.clairvoyant import ClairvoyantOracle
     from oracles.myopic import MyopicOracle
+    from planning.world.runner import play_sequence
     from planning.world.sequences import Sequence, load
 
     seq = load(two_room, [1])[0]

@@ -6,13 +6,13 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from planning.domain.batched import BatchedModel
-from planning.heuristics.hmax import HMax, goal_literals
-from planning.states import INF_64
 import planning.heuristics.lmcut as lmcut_module
-from planning.heuristics.lmcut import LMCut
+from planning.domain.batched import BatchedModel
 from planning.domain.model import Op
+from planning.heuristics.hmax import HMax, goal_literals
+from planning.heuristics.lmcut import LMCut
 from planning.search.optimal import optimal_plan, uniform_cost_search
+from planning.states import INF_64
 
 
 class _Bits:

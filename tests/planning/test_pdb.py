@@ -1,5 +1,4 @@
 """Pattern databases (planning.heuristics.pdb): admissible everywhere, exact where delete relaxations are blind."""
-import numpy as np
 
 from oracles.labelling import Labeller
 from planning.heuristics.hmax import goal_literals

@@ -1,8 +1,8 @@
 """Timeouts and unsolvable tasks are reported as such, never as crashes."""
-from planning.external import fast_downward as fd
-from planning.domain.batched import BatchedModel
-from planning.search.optimal import optimal_plan
 from oracles.myopic import MyopicOracle
+from planning.domain.batched import BatchedModel
+from planning.external import fast_downward as fd
+from planning.search.optimal import optimal_plan
 
 HARD = ["(robot-at servingtable)", "(hand-free)", "(at cup_0 servingtable)", "(dirty cup_0)",
         "(at cup_1 fountain)", "(dirty cup_1)", "(at water_fountain fountain)", "(at apple_0 countertop)",

@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 
 from planning.domain.batched import BatchedModel
-from planning.errors import DomainError
 from planning.domain.factored import factored_actions
+from planning.errors import DomainError
 
 
 def test_initial_successors(two_room):

@@ -1,10 +1,10 @@
 """The persistent world's accounting: budget, abandonment, consumption, resets."""
 import pytest
 
-from tests.examples import START_COSTS
 from planning.errors import DomainError
 from planning.search.optimal import uniform_cost_search
 from planning.world.task_stream import PersistentWorld, TaskStream, draw_tasks
+from tests.examples import START_COSTS
 
 
 def test_abandonment_after_64_actions_charges_the_cost(two_room):

@@ -2,8 +2,8 @@
 import pytest
 from unified_planning.shortcuts import SequentialSimulator
 
-from planning.external.up_bridge import UPStates, action_name, up_problem
 from planning.external.simulator_bench import reachable_states
+from planning.external.up_bridge import UPStates, action_name, up_problem
 
 
 @pytest.mark.parametrize("domain,layout,n", [("domains/restaurant", "two-room", 500),
