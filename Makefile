@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet -e '.[$(EXTRAS)]'
 	touch $@
 
-.PHONY: run test test-slow smoke bench
+.PHONY: run test test-slow smoke bench lint
 run: $(STAMP)
 	$(PY) -m experiments.demo --layout three-room --sequence 0
 
@@ -27,6 +27,10 @@ test-slow: $(STAMP)
 
 smoke: $(STAMP)
 	$(PY) -m pytest -m smoke tests/smoke
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
 
 bench: $(STAMP)
 	$(PY) -m planning.external.simulator_bench --layout three-room --out results/bench-three-room.json

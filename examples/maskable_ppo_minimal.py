@@ -12,6 +12,7 @@ results/minimal-example.json.
     pip install -e '.[rl]'
     python examples/maskable_ppo_minimal.py [--steps 40000] [--seed 0] [--out results/maskable-ppo-minimal.json]
 """
+
 from __future__ import annotations
 
 import json
@@ -62,8 +63,18 @@ def train(horizon: str, steps: int, seed: int) -> tuple:
     from sb3_contrib import MaskablePPO
 
     env = gym.make(ENV_ID, horizon=horizon)
-    model = MaskablePPO("MlpPolicy", env, seed=seed, verbose=0, n_steps=1024, batch_size=128, gamma=0.99,
-                        ent_coef=0.01, learning_rate=1e-3, device="cpu")
+    model = MaskablePPO(
+        "MlpPolicy",
+        env,
+        seed=seed,
+        verbose=0,
+        n_steps=1024,
+        batch_size=128,
+        gamma=0.99,
+        ent_coef=0.01,
+        learning_rate=1e-3,
+        device="cpu",
+    )
     t0 = time.perf_counter()
     model.learn(total_timesteps=steps, progress_bar=False)
     return model, time.perf_counter() - t0
@@ -88,11 +99,18 @@ def main() -> None:
         policy, seconds = train(horizon, args.steps, args.seed)
         sampled = placements(env_model, policy, horizon, args.episodes, args.seed + 1, deterministic=False)
         greedy = placements(env_model, policy, horizon, args.episodes, args.seed + 1, deterministic=True)
-        result[horizon] = {"sampled": sampled, "greedy": greedy, "train_seconds": round(seconds, 1),
-                           "dqn_share_B": dqn.get(horizon, {}).get("share_B")}
-        print(f"{horizon:13s} MaskablePPO share of placements on B: {sampled['share_B']:.3f} sampled, "
-              f"{greedy['share_B']:.3f} greedy ({args.steps} steps, {seconds:.0f} s); "
-              f"our DQN (softmax over Q): {result[horizon]['dqn_share_B']}", flush=True)
+        result[horizon] = {
+            "sampled": sampled,
+            "greedy": greedy,
+            "train_seconds": round(seconds, 1),
+            "dqn_share_B": dqn.get(horizon, {}).get("share_B"),
+        }
+        print(
+            f"{horizon:13s} MaskablePPO share of placements on B: {sampled['share_B']:.3f} sampled, "
+            f"{greedy['share_B']:.3f} greedy ({args.steps} steps, {seconds:.0f} s); "
+            f"our DQN (softmax over Q): {result[horizon]['dqn_share_B']}",
+            flush=True,
+        )
     if args.out:
         Path(args.out).write_text(json.dumps(result, indent=1) + "\n")
         print(f"wrote {args.out}")

@@ -15,6 +15,7 @@ as optimal); our oracle is optimal, so our D_max is expected to differ.
 
     python -m experiments.calibrate --layout two-room [--tasks 2000] [--gamma 0.95] [--margin 0.2]
 """
+
 from __future__ import annotations
 
 import json
@@ -33,8 +34,10 @@ from planning.errors import DomainError
 
 # Table A.2 / §5.2.4; the thesis gives D_max only for the two-room restaurant.
 THESIS = {"two-room": {"d_max": 67.56, "r_goal": 81.07}, "three-room": {"d_max": None, "r_goal": 74.01}}
-NOTE = ("the thesis calibrated with a satisficing planner (plans at least as expensive as optimal); "
-        "this calibration uses our optimal myopic oracle, so D_max is expected to differ")
+NOTE = (
+    "the thesis calibrated with a satisficing planner (plans at least as expensive as optimal); "
+    "this calibration uses our optimal myopic oracle, so D_max is expected to differ"
+)
 
 
 def discounted_requirement(costs, gamma: float, cost_scale: float = 1.0) -> float:
@@ -49,8 +52,7 @@ def calibrate(model, records, gamma: float = 0.95, margin: float = 0.2) -> dict:
     solved = [r for r in records if r.success and not r.auto]
     if not solved:
         raise DomainError(f"{model.name} {model.layout}", "no completed plan to calibrate on")
-    ds = np.array([discounted_requirement([model.action_cost[a] for a in r.plan], gamma, scale)
-                   for r in solved])
+    ds = np.array([discounted_requirement([model.action_cost[a] for a in r.plan], gamma, scale) for r in solved])
     k = int(np.argmax(ds))
     best, d_max = solved[k], float(ds[k])
     by_type: dict[str, float] = {}
@@ -60,18 +62,32 @@ def calibrate(model, records, gamma: float = 0.95, margin: float = 0.2) -> dict:
     counts, edges = np.histogram(ds, bins=10)
     qs = [0.0, 0.1, 0.25, 0.5, 0.75, 0.9, 0.99, 1.0]
     return {
-        "domain": model.name, "layout": model.layout, "gamma": gamma, "margin": margin,
-        "cost_scale": scale, "tasks": len(records), "completed_plans": len(solved),
-        "auto": sum(r.auto for r in records), "failures": sum(not r.success for r in records),
-        "d_max": round(d_max, 4), "r_goal": round((1 + margin) * d_max, 4),
-        "argmax": {"index": best.index, "task": best.task, "plan": [model.actions[a] for a in best.plan],
-                   "costs": [model.action_cost[a] for a in best.plan], "actions": len(best.plan),
-                   "cost": best.cost, "d": round(d_max, 4)},
+        "domain": model.name,
+        "layout": model.layout,
+        "gamma": gamma,
+        "margin": margin,
+        "cost_scale": scale,
+        "tasks": len(records),
+        "completed_plans": len(solved),
+        "auto": sum(r.auto for r in records),
+        "failures": sum(not r.success for r in records),
+        "d_max": round(d_max, 4),
+        "r_goal": round((1 + margin) * d_max, 4),
+        "argmax": {
+            "index": best.index,
+            "task": best.task,
+            "plan": [model.actions[a] for a in best.plan],
+            "costs": [model.action_cost[a] for a in best.plan],
+            "actions": len(best.plan),
+            "cost": best.cost,
+            "d": round(d_max, 4),
+        },
         "d_quantiles": {f"{q:g}": round(float(np.quantile(ds, q)), 4) for q in qs},
         "d_mean": round(float(ds.mean()), 4),
         "d_histogram": {"edges": [round(float(e), 4) for e in edges], "counts": [int(c) for c in counts]},
         "d_max_by_type": {t: round(d, 4) for t, d in sorted(by_type.items())},
-        "thesis": THESIS.get(model.layout), "note": NOTE,
+        "thesis": THESIS.get(model.layout),
+        "note": NOTE,
     }
 
 
@@ -95,8 +111,7 @@ def report(result: dict) -> str:
         f"tasks {result['tasks']} (of {result['tasks_requested']} requested): {result['completed_plans']} "
         f"completed plans, {result['auto']} already satisfied, {result['failures']} failures",
         f"D_max  = {result['d_max']:.2f}   (thesis: {f'{d_th:.2f}' if d_th else implied})",
-        f"R_goal = {1 + result['margin']:g} x D_max = {result['r_goal']:.2f}   "
-        f"(thesis: {th.get('r_goal', 'n/a')})",
+        f"R_goal = {1 + result['margin']:g} x D_max = {result['r_goal']:.2f}   (thesis: {th.get('r_goal', 'n/a')})",
         "D quantiles: " + ", ".join(f"{q}: {v:.2f}" for q, v in result["d_quantiles"].items()),
         "D_max by task type: " + ", ".join(f"{t} {d:.2f}" for t, d in result["d_max_by_type"].items()),
         f"argmax: task {a['index']} {a['task']}, {a['actions']} actions, cost {a['cost']} (PDDL):",
@@ -132,10 +147,16 @@ def main() -> None:
     p.add_argument("--planner", default="internal", choices=["internal", "fast-downward"])
     p.add_argument("--time-limit", type=float, default=600.0, help="planner seconds per task (default 600)")
     p.add_argument("--cache-dir", default="runs/rollouts", help="rollout caches (default: %(default)s)")
-    p.add_argument("--force", action="store_true",
-                   help="replace a calibration made with other settings or from other domain content")
-    p.add_argument("--cached-only", action="store_true",
-                   help="calibrate on the tasks the rollout cache already holds (up to --tasks), planning none")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace a calibration made with other settings or from other domain content",
+    )
+    p.add_argument(
+        "--cached-only",
+        action="store_true",
+        help="calibrate on the tasks the rollout cache already holds (up to --tasks), planning none",
+    )
     args = p.parse_args()
     if not 0 < args.gamma <= 1:
         raise DomainError("--gamma", f"{args.gamma} is not in (0, 1]")
@@ -143,9 +164,14 @@ def main() -> None:
         raise DomainError("--margin", f"{args.margin} is negative")
     model = compile_domain(args.domain, args.layout)
     out = args.out or str(calibration_path(model))
-    cli.check_writable(out)                                    # before the rollout, not after it
-    settings = {"gamma": args.gamma, "margin": args.margin, "seed": args.seed, "planner": args.planner,
-                "tasks_requested": args.tasks}
+    cli.check_writable(out)  # before the rollout, not after it
+    settings = {
+        "gamma": args.gamma,
+        "margin": args.margin,
+        "seed": args.seed,
+        "planner": args.planner,
+        "tasks_requested": args.tasks,
+    }
     if Path(out).is_file() and not args.force:
         refuse_other(out, model, settings)
     start = time.perf_counter()
@@ -155,13 +181,20 @@ def main() -> None:
         records = cached_rollout(model, args.seed, args.tasks, args.planner, args.time_limit, args.cache_dir)
     result = calibrate(model, records, args.gamma, args.margin)
     result.update(identity(model))
-    result.update({"tasks_requested": args.tasks, "seed": args.seed, "planner": args.planner,
-                   "rollout_cache": str(cache_path(model, args.seed, args.planner, args.cache_dir)),
-                   "planner_seconds": round(sum(r.info.get("seconds", 0.0) for r in records), 1),
-                   "wall_seconds": round(time.perf_counter() - start, 1)})
+    result.update(
+        {
+            "tasks_requested": args.tasks,
+            "seed": args.seed,
+            "planner": args.planner,
+            "rollout_cache": str(cache_path(model, args.seed, args.planner, args.cache_dir)),
+            "planner_seconds": round(sum(r.info.get("seconds", 0.0) for r in records), 1),
+            "wall_seconds": round(time.perf_counter() - start, 1),
+        }
+    )
     if result["tasks"] < args.tasks:
-        result["note"] += (f"; calibrated on the first {result['tasks']} of {args.tasks} requested tasks "
-                           f"(the rollout did not finish)")
+        result["note"] += (
+            f"; calibrated on the first {result['tasks']} of {args.tasks} requested tasks (the rollout did not finish)"
+        )
     with OutputLock(out, "calibration"):
         write_json(out, result)
     print(report(result))

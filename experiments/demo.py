@@ -21,6 +21,7 @@ a second of myopic planning, and 5 s for the guided agent's 36 searches of 20,00
 expansions (the compiled Bellman–Novelty search, planning/search/_bn.c); the rest
 is loading.
 """
+
 from __future__ import annotations
 
 import time
@@ -41,9 +42,12 @@ from planning.world.sequences import Sequence, load
 def main() -> None:
     p = cli.parser(__doc__.splitlines()[0], sequence=True)
     p.add_argument("--tasks", type=int, default=50, help="its first N tasks (default: all 50)")
-    p.add_argument("--value", default=None,
-                   help=f"{HELP} (default: q-network:checkpoints/rl-anticipatory-<layout>-seed0.pt)")
-    p.add_argument("--budget", type=int, default=None, help="search expansions per task (default: domain.toml [search])")
+    p.add_argument(
+        "--value", default=None, help=f"{HELP} (default: q-network:checkpoints/rl-anticipatory-<layout>-seed0.pt)"
+    )
+    p.add_argument(
+        "--budget", type=int, default=None, help="search expansions per task (default: domain.toml [search])"
+    )
     args = p.parse_args()
     if args.tasks < 1:
         raise DomainError("--tasks", f"must be at least 1, not {args.tasks}")
@@ -52,8 +56,10 @@ def main() -> None:
     seq = load(model, [args.sequence])[0]
     seq = Sequence(seq.id, seq.reset_seed, seq.tasks[: args.tasks])
     guided = ValueGuidedPlanner(model, value, budget=args.budget)
-    print(f"{model.name} {model.layout}, sequence {seq.id} ({len(seq.tasks)} tasks); value {value}, "
-          f"β = {guided.beta:g}, budget {guided.budget} expansions\n")
+    print(
+        f"{model.name} {model.layout}, sequence {seq.id} ({len(seq.tasks)} tasks); value {value}, "
+        f"β = {guided.beta:g}, budget {guided.budget} expansions\n"
+    )
     _build_planner_tables(model)
     t0 = time.perf_counter()
     with tqdm(total=len(seq.tasks), desc="myopic oracle", unit="task") as bar:
@@ -72,14 +78,26 @@ def main() -> None:
         print(f"{g['index']:3d} {g['task']:30s} {m['cost']:7d} {g['cost']:7d}{note}")
     n = len(seq.tasks)
     c_m, c_g = sum(r["cost"] for r in myopic) / n, sum(r["cost"] for r in ours) / n
-    print(f"\ncost per task: myopic oracle {c_m:.1f} ({t_myopic:.0f} s), anticipatory guided {c_g:.1f} "
-          f"({t_guided:.0f} s, of which {t_search:.0f} s searching; success {sum(r['success'] for r in ours)}/{n}); "
-          f"saving {(c_m - c_g) / c_m:+.1%}")
+    print(
+        f"\ncost per task: myopic oracle {c_m:.1f} ({t_myopic:.0f} s), anticipatory guided {c_g:.1f} "
+        f"({t_guided:.0f} s, of which {t_search:.0f} s searching; success {sum(r['success'] for r in ours)}/{n}); "
+        f"saving {(c_m - c_g) / c_m:+.1%}"
+    )
     if args.out:
-        write_json(args.out, {"domain": model.name, "layout": model.layout, "sequence": seq.id,
-                              "value": value, "config": guided.config,
-                              "myopic_cost_per_task": c_m, "guided_cost_per_task": c_g,
-                              "myopic": myopic, "guided": ours})
+        write_json(
+            args.out,
+            {
+                "domain": model.name,
+                "layout": model.layout,
+                "sequence": seq.id,
+                "value": value,
+                "config": guided.config,
+                "myopic_cost_per_task": c_m,
+                "guided_cost_per_task": c_g,
+                "myopic": myopic,
+                "guided": ours,
+            },
+        )
 
 
 def _build_planner_tables(model) -> None:

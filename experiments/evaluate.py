@@ -13,6 +13,7 @@ replaced unless --force is given. The runner is `planning.world.runner`.
 --workers N plays the sequences on N local processes, --ray as Ray tasks
 (`experiments.workers`); the results file is the serial run's.
 """
+
 from __future__ import annotations
 
 import sys
@@ -31,9 +32,16 @@ def main() -> None:
     if known.list_agents:
         print(describe())
         return
-    p = cli.parser(__doc__.splitlines()[0], sequences=True, progress=True, workers=True,
-                   helps={"workers": "local processes, one sequence each at a time (default: 1, serial)",
-                          "ray": "sequences as Ray tasks: a local instance, or the cluster at RAY_ADDRESS"})
+    p = cli.parser(
+        __doc__.splitlines()[0],
+        sequences=True,
+        progress=True,
+        workers=True,
+        helps={
+            "workers": "local processes, one sequence each at a time (default: 1, serial)",
+            "ray": "sequences as Ray tasks: a local instance, or the cluster at RAY_ADDRESS",
+        },
+    )
     p.add_argument("--agent", required=True, help=f"one of: {', '.join(AGENTS)} (--list-agents describes them)")
     p.add_argument("--list-agents", action="store_true", help="print the registered agents and exit")
     run_options(p)
@@ -41,13 +49,13 @@ def main() -> None:
     if cls is not None:
         cls.options(p.add_argument_group(f"{known.agent} options"))
     args = p.parse_args()
-    one_thread()          # torch and BLAS on one thread, as in the workers: serial and parallel runs compute alike
+    one_thread()  # torch and BLAS on one thread, as in the workers: serial and parallel runs compute alike
     ids = cli.parse_ids(args.sequences)
     model = compile_domain(args.domain, args.layout)
     options, run = agent_options(cls, args), RunOptions.from_args(args)
     agent = build(cls, options, model)
 
-    def over_workers(out, log):             # each sequence a work item; the run below merges their rows
+    def over_workers(out, log):  # each sequence a work item; the run below merges their rows
         if args.workers > 1 or args.ray:
             job = Job(known.agent, options, args.domain, model, agent, ids, out, run.force, run.failure_protocol, log)
             return play_over_workers([job], args.workers, args.ray, progress=run.progress)

@@ -10,6 +10,7 @@ breadth-first search on the grid, are printed beside them.
 
     python -m experiments.minimal_example [--steps N] [--seed 0] [--out results/minimal-example.json]
 """
+
 from __future__ import annotations
 
 from collections import deque
@@ -45,7 +46,7 @@ def exact_task_value(model, state: int, task, gamma: float, r_goal: float, scale
                 continue
             if task.satisfied(nxt):
                 c = cost / scale
-                return -c * sum(gamma ** k for k in range(d + 1)) + gamma ** d * r_goal
+                return -c * sum(gamma**k for k in range(d + 1)) + gamma**d * r_goal
             seen.add(nxt)
             frontier.append((nxt, d + 1))
     raise DomainError(task.name, "unreachable from the placement state")
@@ -59,8 +60,9 @@ def exact_placement_q(model, cell: str, gamma: float, r_goal: float, scale: floa
     q = step_reward(model.action_cost[a], True, scale, r_goal)
     if horizon == "anticipatory":
         p = model.tasks.probabilities / model.tasks.probabilities.sum()
-        q += gamma * sum(p[t.index] * exact_task_value(model, after, t, gamma, r_goal, scale)
-                         for t in model.tasks if p[t.index] > 0)
+        q += gamma * sum(
+            p[t.index] * exact_task_value(model, after, t, gamma, r_goal, scale) for t in model.tasks if p[t.index] > 0
+        )
     return q
 
 
@@ -92,8 +94,16 @@ def softmax_share_b(model, vf: ValueFunction, episodes: int, temperature: float,
     return sum(w == "b" for w in placed) / max(1, len(placed))
 
 
-def run(domain: str, seed: int, steps: int | None, out_dir: str, episodes: int = 1000, layout: str | None = None,
-        temperature: float = 1.0, progress: bool = True) -> dict:
+def run(
+    domain: str,
+    seed: int,
+    steps: int | None,
+    out_dir: str,
+    episodes: int = 1000,
+    layout: str | None = None,
+    temperature: float = 1.0,
+    progress: bool = True,
+) -> dict:
     """Train both agents and measure them; the JSON of the --out file."""
     model = compile_domain(domain, layout)
     result = {}
@@ -101,22 +111,38 @@ def run(domain: str, seed: int, steps: int | None, out_dir: str, episodes: int =
         values = domain_defaults(model, horizon)
         if steps:
             values["steps"] = steps
-        cfg = Config(domain=domain, layout=model.layout, horizon=horizon, seed=seed,
-                     out=f"{out_dir}/{horizon}-seed{seed}", **values)
-        trainer = train_run(cfg, progress=progress)     # an interrupted run goes on; a finished one is measured
+        cfg = Config(
+            domain=domain,
+            layout=model.layout,
+            horizon=horizon,
+            seed=seed,
+            out=f"{out_dir}/{horizon}-seed{seed}",
+            **values,
+        )
+        trainer = train_run(cfg, progress=progress)  # an interrupted run goes on; a finished one is measured
         trainer.net.eval()
         vf = ValueFunction(trainer.net, trainer.enc)
         clear = model.tasks.get(FIRST)
-        q = {c: float(vf.q_values([placement_state(model, c)], clear.index)[0, model.action(f"place(apple, {c})")])
-             for c in TARGETS}
+        q = {
+            c: float(vf.q_values([placement_state(model, c)], clear.index)[0, model.action(f"place(apple, {c})")])
+            for c in TARGETS
+        }
         exact = {c: exact_placement_q(model, c, cfg.gamma, trainer.r_goal, trainer.scale, horizon) for c in TARGETS}
-        result[horizon] = {"q_A": round(q["a"], 3), "q_B": round(q["b"], 3), "gap": round(q["b"] - q["a"], 3),
-                           "share_B": round(softmax_share_b(model, vf, episodes, temperature, seed + 1), 3),
-                           "exact_q_A": round(exact["a"], 3), "exact_q_B": round(exact["b"], 3),
-                           "exact_gap": round(exact["b"] - exact["a"], 3), "steps": trainer.step,
-                           "config": asdict(cfg)}
-    result["thesis"] = {"myopic": {"q_A": 9.0, "q_B": 9.0, "gap": -0.01, "share_B": 0.47},
-                        "anticipatory": {"gap": 5.0, "share_B": 0.99}}
+        result[horizon] = {
+            "q_A": round(q["a"], 3),
+            "q_B": round(q["b"], 3),
+            "gap": round(q["b"] - q["a"], 3),
+            "share_B": round(softmax_share_b(model, vf, episodes, temperature, seed + 1), 3),
+            "exact_q_A": round(exact["a"], 3),
+            "exact_q_B": round(exact["b"], 3),
+            "exact_gap": round(exact["b"] - exact["a"], 3),
+            "steps": trainer.step,
+            "config": asdict(cfg),
+        }
+    result["thesis"] = {
+        "myopic": {"q_A": 9.0, "q_B": 9.0, "gap": -0.01, "share_B": 0.47},
+        "anticipatory": {"gap": 5.0, "share_B": 0.99},
+    }
     result["softmax"] = {"episodes": episodes, "temperature": temperature}
     return result
 
@@ -128,13 +154,17 @@ def main() -> None:
     p.add_argument("--runs", default="runs/minimal", help="folder of the two training runs")
     args = p.parse_args()
     r = run(args.domain, args.seed, args.steps, args.runs, layout=args.layout, progress=not args.no_progress)
-    print(f"{'agent':13s} {'Q(place A)':>11s} {'Q(place B)':>11s} {'gap':>7s} {'share B':>8s}   "
-          f"exact: {'Q(A)':>6s} {'Q(B)':>6s} {'gap':>6s}   thesis: gap, share B")
+    print(
+        f"{'agent':13s} {'Q(place A)':>11s} {'Q(place B)':>11s} {'gap':>7s} {'share B':>8s}   "
+        f"exact: {'Q(A)':>6s} {'Q(B)':>6s} {'gap':>6s}   thesis: gap, share B"
+    )
     for h in ("myopic", "anticipatory"):
         x, t = r[h], r["thesis"][h]
-        print(f"{h:13s} {x['q_A']:11.2f} {x['q_B']:11.2f} {x['gap']:7.2f} {x['share_B']:8.2f}   "
-              f"       {x['exact_q_A']:6.2f} {x['exact_q_B']:6.2f} {x['exact_gap']:6.2f}   "
-              f"        {t['gap']:+.2f}, {t['share_B']:.2f}")
+        print(
+            f"{h:13s} {x['q_A']:11.2f} {x['q_B']:11.2f} {x['gap']:7.2f} {x['share_B']:8.2f}   "
+            f"       {x['exact_q_A']:6.2f} {x['exact_q_B']:6.2f} {x['exact_gap']:6.2f}   "
+            f"        {t['gap']:+.2f}, {t['share_B']:.2f}"
+        )
     if args.out:
         write_json(args.out, r)
         print(f"wrote {args.out}")

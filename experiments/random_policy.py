@@ -1,4 +1,5 @@
 """Uniformly random applicable actions: the floor every learned agent must beat."""
+
 from __future__ import annotations
 
 import numpy as np

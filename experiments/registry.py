@@ -8,6 +8,7 @@ it for the compiled layout, and its `run_name` names the default results file
 `from_args` reads travels as the agent's options dataclass (`agent_options`),
 one field per declared flag. A new agent is one module and one row here.
 """
+
 from __future__ import annotations
 
 import argparse

@@ -22,6 +22,7 @@ the thesis comparisons that do not; default output docs/results-<domain>.md,
 no figures. A layout without its canonical sequences is named with the command
 that writes them, and none of its runs is played.
 """
+
 from __future__ import annotations
 
 import shlex
@@ -71,8 +72,15 @@ def run_missing(rows, ctx: Context, ids=ALL, progress: bool = True, via: str = "
         model, agent = ctx.model(run.layout), ctx.agent(run)
         if agent.keeps_log:
             agent.set_log(f"{run.out}.windows.jsonl")
-        evaluate(model, agent, list(ids), run.out, progress=progress, reference=reference_path(model),
-                 protocol=run_protocol(run))
+        evaluate(
+            model,
+            agent,
+            list(ids),
+            run.out,
+            progress=progress,
+            reference=reference_path(model),
+            protocol=run_protocol(run),
+        )
         stamp(run, via)
         written.append(run.out)
     return written
@@ -118,16 +126,27 @@ def playable(ctx: Context, layouts) -> list[str]:
         if any(folder.glob("seq-*.json")):
             out.append(layout)
         else:
-            print(f"{layout}: no canonical sequences in {folder}, nothing played (`python -m planning.world.sequences "
-                  f"--domain {ctx.domain} --layout {layout}` writes them)", file=sys.stderr)
+            print(
+                f"{layout}: no canonical sequences in {folder}, nothing played (`python -m planning.world.sequences "
+                f"--domain {ctx.domain} --layout {layout}` writes them)",
+                file=sys.stderr,
+            )
     return out
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0], layout=False, progress=True,
-                   helps={"out": "report (default: docs/results.md; docs/results-<domain>.md for another domain)"})
-    p.add_argument("--layouts", default=None, help="comma-separated layouts (default: the restaurant's "
-                                                   f"{','.join(LAYOUTS)}; every layout of another domain's folder)")
+    p = cli.parser(
+        __doc__.splitlines()[0],
+        layout=False,
+        progress=True,
+        helps={"out": "report (default: docs/results.md; docs/results-<domain>.md for another domain)"},
+    )
+    p.add_argument(
+        "--layouts",
+        default=None,
+        help="comma-separated layouts (default: the restaurant's "
+        f"{','.join(LAYOUTS)}; every layout of another domain's folder)",
+    )
     p.add_argument("--report-only", action="store_true", help="only read the results and write the report")
     p.add_argument("--discount-sweep", action="store_true", help="also train the Table A.5 runs (long)")
     args = p.parse_args()
@@ -150,8 +169,11 @@ def main() -> None:
         from planning.parallel import one_thread
 
         one_thread()
-        rows = ([r for layout in layouts for r in row_specs(layout)] if restaurant else
-                [r for layout in playable(ctx, layouts) for r in domain.rows(ctx, layout)])
+        rows = (
+            [r for layout in layouts for r in row_specs(layout)]
+            if restaurant
+            else [r for layout in playable(ctx, layouts) for r in domain.rows(ctx, layout)]
+        )
         written = run_missing(rows, ctx, progress=not args.no_progress, via=command)
         print(f"ran {len(written)} evaluations", file=sys.stderr)
         if args.discount_sweep:

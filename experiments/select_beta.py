@@ -13,6 +13,7 @@ default β's file is the agent's own, so its development sequences are reused
 and extended, not replayed); the selection is written to OUT (default
 results/beta-selection-<checkpoint>.json).
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -39,17 +40,22 @@ def split_costs(model, result: dict) -> dict:
             continue
         tasks = sum(s["tasks"] for s in seqs)
         cost = sum(s["cost"] for s in seqs) / tasks
-        out[split] = {"sequences": [s["id"] for s in seqs], "tasks": tasks, "cost_per_task": round(cost, 2),
-                      "success_rate": round(sum(s["successes"] for s in seqs) / tasks, 4),
-                      "improvement_vs_myopic": improvement(cost, model, [s["id"] for s in seqs],
-                                                           reference_path(model))}
+        out[split] = {
+            "sequences": [s["id"] for s in seqs],
+            "tasks": tasks,
+            "cost_per_task": round(cost, 2),
+            "success_rate": round(sum(s["successes"] for s in seqs) / tasks, 4),
+            "improvement_vs_myopic": improvement(cost, model, [s["id"] for s in seqs], reference_path(model)),
+        }
     return out
 
 
 def main() -> None:
     p = cli.parser(__doc__.splitlines()[0])
     p.add_argument("--checkpoint", required=True, help="Q-network checkpoint whose value guides the search")
-    p.add_argument("--betas", default=",".join(f"{b:g}" for b in THESIS_BETAS), help="candidate β (default: %(default)s)")
+    p.add_argument(
+        "--betas", default=",".join(f"{b:g}" for b in THESIS_BETAS), help="candidate β (default: %(default)s)"
+    )
     p.add_argument("--budget", type=int, default=None, help="expansions per task (default: domain.toml [search])")
     p.add_argument("--results", default="results", help="folder of the per-β results files (default: %(default)s)")
     p.add_argument("--no-final", action="store_true", help="stop after choosing; do not play all ten sequences")
@@ -65,20 +71,36 @@ def main() -> None:
         agent = ValueGuidedPlanner(model, args.checkpoint, beta=beta, budget=args.budget)
         path = f"{args.results}/{agent.run_name}.json"
         r = evaluate(model, agent, list(DEVELOPMENT), path, reference=reference_path(model))
-        dev = split_costs(model, r)["development"]          # a finished file may hold more sequences
-        rows.append({"beta": beta, **{k: dev[k] for k in ("cost_per_task", "success_rate", "improvement_vs_myopic")},
-                     "file": path})
+        dev = split_costs(model, r)["development"]  # a finished file may hold more sequences
+        rows.append(
+            {
+                "beta": beta,
+                **{k: dev[k] for k in ("cost_per_task", "success_rate", "improvement_vs_myopic")},
+                "file": path,
+            }
+        )
         print(f"β = {beta:g}: development cost per task {dev['cost_per_task']}, success {dev['success_rate']}")
     best = min(rows, key=lambda r: (r["cost_per_task"], r["beta"]))
-    result = {"domain": model.name, "layout": model.layout, "checkpoint": args.checkpoint,
-              "development": list(DEVELOPMENT), "candidates": rows, "chosen_beta": best["beta"]}
+    result = {
+        "domain": model.name,
+        "layout": model.layout,
+        "checkpoint": args.checkpoint,
+        "development": list(DEVELOPMENT),
+        "candidates": rows,
+        "chosen_beta": best["beta"],
+    }
     print(f"chosen β = {best['beta']:g}")
     if not args.no_final:
         agent = ValueGuidedPlanner(model, args.checkpoint, beta=best["beta"], budget=args.budget)
         final = f"{args.results}/{agent.run_name}.json"
         r = evaluate(model, agent, list(range(COUNT)), final, reference=reference_path(model))
-        result["final"] = {"file": final, "cost_per_task": r["cost_per_task"], "success_rate": r["success_rate"],
-                           "improvement_vs_myopic": r["improvement_vs_myopic"], "splits": split_costs(model, r)}
+        result["final"] = {
+            "file": final,
+            "cost_per_task": r["cost_per_task"],
+            "success_rate": r["success_rate"],
+            "improvement_vs_myopic": r["improvement_vs_myopic"],
+            "splits": split_costs(model, r),
+        }
         for split, s in result["final"]["splits"].items():
             print(f"{split:12s} cost per task {s['cost_per_task']}, improvement vs myopic {s['improvement_vs_myopic']}")
     write_json(out, {**result, "provenance": results_provenance({"checkpoint": args.checkpoint})})

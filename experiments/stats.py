@@ -13,6 +13,7 @@ seed (an oracle has one). Two tests, as the thesis reports them:
   thesis's own Table 5.2 figures (978 ± 127 over 5 seeds against 1,308 ± 1
   over 4) this gives t(4) = 5.8 and 13.1%–37.3%, the interval it reports.
 """
+
 from __future__ import annotations
 
 import math
@@ -50,8 +51,12 @@ def wilcoxon_paired(a: dict[int, float], b: dict[int, float]) -> dict:
     the smallest p attainable at this n; `reason` instead of p where the test cannot be made.
     """
     ids = sorted(set(a) & set(b))
-    out = {"n": len(ids), "sequences": ids, "a_cheaper": sum(a[i] < b[i] for i in ids),
-           "b_cheaper": sum(b[i] < a[i] for i in ids)}
+    out = {
+        "n": len(ids),
+        "sequences": ids,
+        "a_cheaper": sum(a[i] < b[i] for i in ids),
+        "b_cheaper": sum(b[i] < a[i] for i in ids),
+    }
     if len(ids) < 2:
         return {**out, "reason": f"{len(ids)} paired sequences (needs at least 2)"}
     if all(a[i] == b[i] for i in ids):
@@ -60,30 +65,43 @@ def wilcoxon_paired(a: dict[int, float], b: dict[int, float]) -> dict:
     return {**out, "statistic": float(res.statistic), "p": float(res.pvalue), "min_p": 2 / 2 ** len(ids)}
 
 
-def welch_from_stats(mean_a: float, sd_a: float, n_a: int, mean_b: float, sd_b: float, n_b: int,
-                     level: float = 0.95) -> dict:
+def welch_from_stats(
+    mean_a: float, sd_a: float, n_a: int, mean_b: float, sd_b: float, n_b: int, level: float = 0.95
+) -> dict:
     """Welch's t of B − A from summary statistics (sample standard deviations), its df and two-sided p,
     the reduction 1 − A/B and its `level` interval (the interval of B − A divided by B's mean)."""
-    va, vb = sd_a ** 2 / n_a, sd_b ** 2 / n_b
+    va, vb = sd_a**2 / n_a, sd_b**2 / n_b
     se = math.sqrt(va + vb)
     diff = mean_b - mean_a
     out = {"n_a": n_a, "n_b": n_b, "mean_a": mean_a, "mean_b": mean_b, "reduction": diff / mean_b}
     if se == 0:
         return {**out, "reason": "no spread across seeds on either side"}
-    df = (va + vb) ** 2 / (va ** 2 / (n_a - 1) + vb ** 2 / (n_b - 1))
+    df = (va + vb) ** 2 / (va**2 / (n_a - 1) + vb**2 / (n_b - 1))
     t = diff / se
     q = stats.t.ppf(0.5 + level / 2, df)
-    return {**out, "t": t, "df": df, "p": float(2 * stats.t.sf(abs(t), df)), "se": se,
-            "ci": ((diff - q * se) / mean_b, (diff + q * se) / mean_b), "level": level}
+    return {
+        **out,
+        "t": t,
+        "df": df,
+        "p": float(2 * stats.t.sf(abs(t), df)),
+        "se": se,
+        "ci": ((diff - q * se) / mean_b, (diff + q * se) / mean_b),
+        "level": level,
+    }
 
 
 def welch_seeds(a: list[float], b: list[float], level: float = 0.95) -> dict:
     """Welch's t across seeds (one cost per task per seed on each side); `reason` where it cannot be made."""
     if len(a) < 2 or len(b) < 2:
         mean = lambda xs: sum(xs) / len(xs) if xs else float("nan")
-        return {"n_a": len(a), "n_b": len(b), "mean_a": mean(a), "mean_b": mean(b),
-                "reduction": 1 - mean(a) / mean(b) if a and b else None,
-                "reason": f"not computable: {len(a)} and {len(b)} seeds (needs at least 2 on each side)"}
+        return {
+            "n_a": len(a),
+            "n_b": len(b),
+            "mean_a": mean(a),
+            "mean_b": mean(b),
+            "reduction": 1 - mean(a) / mean(b) if a and b else None,
+            "reason": f"not computable: {len(a)} and {len(b)} seeds (needs at least 2 on each side)",
+        }
     sd = lambda xs: math.sqrt(sum((x - sum(xs) / len(xs)) ** 2 for x in xs) / (len(xs) - 1))
     return welch_from_stats(sum(a) / len(a), sd(a), len(a), sum(b) / len(b), sd(b), len(b), level)
 

@@ -30,6 +30,7 @@ figures, the wall time, the summed item times and how the items ran. --workers N
 processes (default 1: serially, here); --ray: Ray tasks (plain tasks, not Ray Tune) on a
 local instance, or on the cluster at RAY_ADDRESS.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -53,8 +54,8 @@ from planning.world.runner import evaluate
 from .registry import agent_class, agent_options
 from .workers import Job, play_over_workers
 
-GRID = ("layout", "horizon", "seed")            # the axes every training sweep has
-TIMING_KEYS = ("steps_per_s", "updates_per_s")   # left out of the outcome: they differ run to run
+GRID = ("layout", "horizon", "seed")  # the axes every training sweep has
+TIMING_KEYS = ("steps_per_s", "updates_per_s")  # left out of the outcome: they differ run to run
 
 
 # ---- lists on the command line -------------------------------------------------------------
@@ -72,7 +73,9 @@ def _values(text: str, kind, name: str) -> list:
             else:
                 out.append(kind(part))
         except ValueError:
-            raise DomainError(f"--{name.replace('_', '-')}", f"'{text}' is not a list of {kind.__name__} values") from None
+            raise DomainError(
+                f"--{name.replace('_', '-')}", f"'{text}' is not a list of {kind.__name__} values"
+            ) from None
     return out
 
 
@@ -80,6 +83,7 @@ def summary_name(domain: str, grid: dict) -> str:
     """train-<domain>-<layouts>-<horizons>-seed<seeds>[-<setting><values>...]: a training sweep's default
     summary, named after its grid, so that two sweeps of one domain keep their own. Values are joined
     by '+', runs of consecutive integers written a-b (seed 0-3+8)."""
+
     def spell(values):
         runs = []
         for v in values:
@@ -88,8 +92,14 @@ def summary_name(domain: str, grid: dict) -> str:
             else:
                 runs.append([v, v])
         return "+".join(str(a) if a == b else f"{a}-{b}" for a, b in runs)
-    return "-".join(["train", domain, *(spell(v) if axis in ("layout", "horizon") else f"{axis}{spell(v)}"
-                                       for axis, v in grid.items())])
+
+    return "-".join(
+        [
+            "train",
+            domain,
+            *(spell(v) if axis in ("layout", "horizon") else f"{axis}{spell(v)}" for axis, v in grid.items()),
+        ]
+    )
 
 
 def _field_kind(f) -> type:
@@ -102,8 +112,9 @@ def item_config(item: dict):
     """A training item's settings, built and checked as learning.dqn builds its own (`learning.q.training.make_config`)."""
     from learning.q.training import make_config
 
-    return make_config(item["domain"], item["layout"], item["horizon"], seed=item["seed"], out=item["out"],
-                       **item["settings"])
+    return make_config(
+        item["domain"], item["layout"], item["horizon"], seed=item["seed"], out=item["out"], **item["settings"]
+    )
 
 
 def train_item(item: dict) -> dict:
@@ -113,9 +124,14 @@ def train_item(item: dict) -> dict:
 
     cfg = item_config(item)
     trainer = train_run(cfg, progress=False)
-    out = {"run": item["out"], "config": dataclasses.asdict(cfg), "steps": trainer.step,
-           "tasks": trainer.tasks_done, "best": trainer.best,
-           "last": {k: v for k, v in last_row(trainer.metrics).items() if k not in TIMING_KEYS}}
+    out = {
+        "run": item["out"],
+        "config": dataclasses.asdict(cfg),
+        "steps": trainer.step,
+        "tasks": trainer.tasks_done,
+        "best": trainer.best,
+        "last": {k: v for k, v in last_row(trainer.metrics).items() if k not in TIMING_KEYS},
+    }
     if item.get("deploy"):
         out["deployed"] = deploy(trainer.model, Path(item["out"]), item["deploy"])
     return out
@@ -129,7 +145,10 @@ def deploy(model, run: Path, paths: dict) -> dict:
     export(run, Path(paths["checkpoint"]), Path(paths["figures"]), force=paths.get("force", False))
     agent = agent_class("rl-greedy").from_args(agent_options("rl-greedy", checkpoint=paths["checkpoint"]), model)
     r = evaluate(model, agent, paths["sequences"], paths["greedy"], progress=False, reference=reference_path(model))
-    return {**paths, **{k: r[k] for k in ("cost_per_task", "success_rate", "actions_per_task", "improvement_vs_myopic")}}
+    return {
+        **paths,
+        **{k: r[k] for k in ("cost_per_task", "success_rate", "actions_per_task", "improvement_vs_myopic")},
+    }
 
 
 def train_items(args, grid: dict, settings: dict) -> tuple[list, list, list]:
@@ -148,22 +167,31 @@ def train_items(args, grid: dict, settings: dict) -> tuple[list, list, list]:
         # a run with a target bound keeps its files apart under learning.dqn's own suffix
         extra = "".join(f"-{a}{p[a]}" for a in varied if a != "target_bound")
         name = run_name(domain_name, {**settings, **p}, extra)
-        items.append({"domain": args.domain, "layout": p["layout"], "horizon": p["horizon"], "seed": p["seed"],
-                      "settings": {**settings, **{a: p[a] for a in axes if a not in GRID}},
-                      "out": str(Path(args.runs) / name)})
-        item_config(items[-1])                                    # a setting no run can have
+        items.append(
+            {
+                "domain": args.domain,
+                "layout": p["layout"],
+                "horizon": p["horizon"],
+                "seed": p["seed"],
+                "settings": {**settings, **{a: p[a] for a in axes if a not in GRID}},
+                "out": str(Path(args.runs) / name),
+            }
+        )
+        item_config(items[-1])  # a setting no run can have
         for axis in grid:
             file_name(p[axis], f"--{axis.replace('_', '-')}", "value")
         file_in(args.runs, name, "--runs", "a run folder's name")
-        if args.deploy:           # learning.export's and experiments.evaluate's default names
+        if args.deploy:  # learning.export's and experiments.evaluate's default names
             short = rl_name({**settings, **p}, extra)
             pddl = compile_domain(args.domain, p["layout"]).name
             first = "" if pddl == "restaurant" else f"{file_name(pddl, '--domain', 'domain name')}-"
-            items[-1]["deploy"] = {"checkpoint": f"{args.checkpoints}/{first}rl-{short}.pt",
-                                   "figures": f"{args.results}/{first}training-{short}.json",
-                                   "greedy": f"{args.results}/{first}rl-greedy-{short}.json",
-                                   "sequences": cli.parse_ids(args.sequences),
-                                   **({"force": True} if args.force else {})}
+            items[-1]["deploy"] = {
+                "checkpoint": f"{args.checkpoints}/{first}rl-{short}.pt",
+                "figures": f"{args.results}/{first}training-{short}.json",
+                "greedy": f"{args.results}/{first}rl-greedy-{short}.json",
+                "sequences": cli.parse_ids(args.sequences),
+                **({"force": True} if args.force else {}),
+            }
         names.append(name)
     return points, names, items
 
@@ -188,27 +216,51 @@ def train_sweep(args, grid: dict, settings: dict, plan: tuple, out: Path) -> dic
         write_json(parts / f"{name}.json", results[name])
 
     t0 = time.perf_counter()
-    run_items(train_item, [item for _, item in todo], workers=args.workers, use_ray=args.ray, on_result=write_part,
-              progress=not args.no_progress, desc="training runs")
+    run_items(
+        train_item,
+        [item for _, item in todo],
+        workers=args.workers,
+        use_ray=args.ray,
+        on_result=write_part,
+        progress=not args.no_progress,
+        desc="training runs",
+    )
     wall = time.perf_counter() - t0
     rows = []
     for name, p in zip(names, points):
         r = results[name]
         best = r["result"]["best"] or {}
-        rows.append({"name": name, **p, "run": r["result"]["run"], "steps": r["result"]["steps"],
-                     "tasks": r["result"]["tasks"], "best_step": best.get("step"), "best_eval": best.get("eval"),
-                     "last": r["result"]["last"], "seconds": r["provenance"].get("seconds")})
+        rows.append(
+            {
+                "name": name,
+                **p,
+                "run": r["result"]["run"],
+                "steps": r["result"]["steps"],
+                "tasks": r["result"]["tasks"],
+                "best_step": best.get("step"),
+                "best_eval": best.get("eval"),
+                "last": r["result"]["last"],
+                "seconds": r["provenance"].get("seconds"),
+            }
+        )
         if "deployed" in r["result"]:
             rows[-1]["greedy"] = r["result"]["deployed"]
-    return {"kind": "train", "domain": Path(args.domain).resolve().name, "grid": grid, "settings": settings,
-            "points": rows, "items_run": len(todo), "items_reused": len(items) - len(todo)}, wall
+    return {
+        "kind": "train",
+        "domain": Path(args.domain).resolve().name,
+        "grid": grid,
+        "settings": settings,
+        "points": rows,
+        "items_run": len(todo),
+        "items_reused": len(items) - len(todo),
+    }, wall
 
 
 def _load_part(path: Path) -> dict | None:
     try:
         return json.loads(path.read_text()) if path.is_file() else None
     except (OSError, ValueError):
-        return None                                  # half a file: run again
+        return None  # half a file: run again
 
 
 # ---- rl-guided evaluations -----------------------------------------------------------------
@@ -222,48 +274,100 @@ def guided_sweep(args, layout: str, out: Path) -> tuple[dict, float]:
     depths = _values(args.depth_cap, int, "depth_cap") if args.depth_cap else [None]
     jobs = []
     for beta, budget, depth in itertools.product(betas, budgets, depths):
-        options = agent_options(cls, checkpoint=args.checkpoint, beta=beta, budget=budget, depth_cap=depth,
-                                reference=args.reference, time_limit=args.time_limit)
+        options = agent_options(
+            cls,
+            checkpoint=args.checkpoint,
+            beta=beta,
+            budget=budget,
+            depth_cap=depth,
+            reference=args.reference,
+            time_limit=args.time_limit,
+        )
         agent = cls.from_args(options, model)
-        jobs.append(Job("rl-guided", options, args.domain, model, agent, ids, default_out(agent, model, args.results),
-                        args.force))
+        jobs.append(
+            Job(
+                "rl-guided",
+                options,
+                args.domain,
+                model,
+                agent,
+                ids,
+                default_out(agent, model, args.results),
+                args.force,
+            )
+        )
     t0 = time.perf_counter()
     played = play_over_workers(jobs, args.workers, args.ray, progress=not args.no_progress)
     wall = time.perf_counter() - t0
     rows = []
     for job in jobs:
         r = evaluate(model, job.agent, ids, job.out, progress=False, reference=reference_path(model), force=args.force)
-        rows.append({"beta": job.agent.beta, "budget": job.agent.budget, "depth_cap": job.agent.depth_cap,
-                     "cost_per_task": r["cost_per_task"], "success_rate": r["success_rate"],
-                     "actions_per_task": r["actions_per_task"], "improvement_vs_myopic": r["improvement_vs_myopic"],
-                     "file": job.out})
-    return {"kind": "guided", "domain": model.name, "layout": model.layout, "checkpoint": args.checkpoint,
-            "sequences": ids, "points": rows, "items_run": played["items"], "items_reused": played["reused"]}, wall
+        rows.append(
+            {
+                "beta": job.agent.beta,
+                "budget": job.agent.budget,
+                "depth_cap": job.agent.depth_cap,
+                "cost_per_task": r["cost_per_task"],
+                "success_rate": r["success_rate"],
+                "actions_per_task": r["actions_per_task"],
+                "improvement_vs_myopic": r["improvement_vs_myopic"],
+                "file": job.out,
+            }
+        )
+    return {
+        "kind": "guided",
+        "domain": model.name,
+        "layout": model.layout,
+        "checkpoint": args.checkpoint,
+        "sequences": ids,
+        "points": rows,
+        "items_run": played["items"],
+        "items_reused": played["reused"],
+    }, wall
 
 
 def main() -> None:
-    one_thread()                  # as in the workers: a serial sweep computes what a parallel one does
+    one_thread()  # as in the workers: a serial sweep computes what a parallel one does
     from learning.q.training import Config, file_in, file_name
 
-    p = cli.parser(__doc__.splitlines()[0], sequences=True, progress=True, workers=True,
-                   helps={"workers": "local processes (default: 1, serially here)"})
+    p = cli.parser(
+        __doc__.splitlines()[0],
+        sequences=True,
+        progress=True,
+        workers=True,
+        helps={"workers": "local processes (default: 1, serially here)"},
+    )
     p.add_argument("--kind", choices=("train", "guided"), default="train", help="what to sweep (default: %(default)s)")
-    p.add_argument("--force", action="store_true", help="replace results files made otherwise (guided), exported "
-                                                        "checkpoints and figures of other runs (train --deploy)")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace results files made otherwise (guided), exported "
+        "checkpoints and figures of other runs (train --deploy)",
+    )
     train = p.add_argument_group("--kind train (a comma list or range makes an axis of the grid)")
     train.add_argument("--horizon", default="myopic,anticipatory", help="(default: %(default)s)")
     train.add_argument("--runs", default="runs/sweep", help="folder of the run folders (default: %(default)s)")
-    train.add_argument("--deploy", action="store_true",
-                       help="export each finished run and evaluate it greedily on --sequences (default there: all)")
-    train.add_argument("--checkpoints", default="checkpoints", help="--deploy: folder of the compact checkpoints "
-                                                                    "(default: %(default)s)")
+    train.add_argument(
+        "--deploy",
+        action="store_true",
+        help="export each finished run and evaluate it greedily on --sequences (default there: all)",
+    )
+    train.add_argument(
+        "--checkpoints",
+        default="checkpoints",
+        help="--deploy: folder of the compact checkpoints (default: %(default)s)",
+    )
     docs = cli.field_docs(Config)
     for f in dataclasses.fields(Config):
         if f.name in ("domain", "layout", "horizon", "out"):
             continue
         default = "0" if f.name == "seed" else "domain.toml [training], else Table A.2"
-        train.add_argument(f"--{f.name.replace('_', '-')}", dest=f.name, default=None,
-                           help=f"{docs.get(f.name, '')} (default: {default})".replace("%", "%%"))
+        train.add_argument(
+            f"--{f.name.replace('_', '-')}",
+            dest=f.name,
+            default=None,
+            help=f"{docs.get(f.name, '')} (default: {default})".replace("%", "%%"),
+        )
     guided = p.add_argument_group("--kind guided")
     guided.add_argument("--checkpoint", help="the Q-network checkpoint whose value guides the search")
     guided.add_argument("--beta", default=None, help="cost slacks, e.g. 1,1.25,1.5 (default: domain.toml [search])")
@@ -271,17 +375,21 @@ def main() -> None:
     guided.add_argument("--depth-cap", default=None, help="depths of open nodes, e.g. 10,20")
     guided.add_argument("--reference", default="internal", choices=PLANNERS)
     guided.add_argument("--time-limit", type=float, default=60.0, help="reference planner seconds per task")
-    p.add_argument("--results", default=None, help="folder of the results files: guided, one per setting "
-                                                   "(default: results/sweeps); train --deploy (default: results)")
+    p.add_argument(
+        "--results",
+        default=None,
+        help="folder of the results files: guided, one per setting "
+        "(default: results/sweeps); train --deploy (default: results)",
+    )
     p.set_defaults(sequences=None)
     args = p.parse_args()
-    if args.sequences is None:        # guided: the development split, as β was chosen; greedy: every sequence
+    if args.sequences is None:  # guided: the development split, as β was chosen; greedy: every sequence
         args.sequences = "1,3,6" if args.kind == "guided" else "0-9"
     if args.results is None:
         args.results = "results/sweeps" if args.kind == "guided" else "results"
 
     layouts = [x for x in (args.layout or "").split(",") if x] or [None]
-    models = [compile_domain(args.domain, layout) for layout in layouts]     # an unknown layout stops here
+    models = [compile_domain(args.domain, layout) for layout in layouts]  # an unknown layout stops here
     layouts = [m.layout for m in models]
     if args.kind == "guided":
         if not args.checkpoint:
@@ -291,8 +399,11 @@ def main() -> None:
         out = Path(args.out or f"results/sweeps/guided-{Path(args.checkpoint).stem}.json")
         result, wall = guided_sweep(args, layouts[0], out)
     else:
-        grid = {"layout": layouts, "horizon": _values(args.horizon, str, "horizon"),
-                "seed": _values(args.seed if args.seed is not None else "0", int, "seed")}
+        grid = {
+            "layout": layouts,
+            "horizon": _values(args.horizon, str, "horizon"),
+            "seed": _values(args.seed if args.seed is not None else "0", int, "seed"),
+        }
         settings = {}
         for f in dataclasses.fields(Config):
             v = getattr(args, f.name, None)
@@ -306,18 +417,23 @@ def main() -> None:
         for h in grid["horizon"]:
             if h not in ("myopic", "anticipatory"):
                 raise DomainError("--horizon", f"'{h}' is neither myopic nor anticipatory")
-        plan = train_items(args, grid, settings)                 # nothing is written before this
+        plan = train_items(args, grid, settings)  # nothing is written before this
         domain = file_name(models[0].name, models[0].files["domain"], "domain name")
-        out = Path(args.out or file_in("results/sweeps", f"{summary_name(domain, grid)}.json", "--out",
-                                       "the default summary's name"))
+        out = Path(
+            args.out
+            or file_in("results/sweeps", f"{summary_name(domain, grid)}.json", "--out", "the default summary's name")
+        )
         result, wall = train_sweep(args, grid, settings, plan, out)
     item_seconds = sum(pt.get("seconds") or 0 for pt in result["points"]) if args.kind == "train" else None
     result.update(wall_seconds=round(wall, 2), ran=describe(args.workers, args.ray), provenance=provenance())
     if item_seconds is not None:
         result["item_seconds"] = round(item_seconds, 2)
     write_json(out, result)
-    print(f"{result['kind']} sweep: {len(result['points'])} points ({result['items_run']} items run, "
-          f"{result['items_reused']} reused), {wall:.1f} s {result['ran']}; wrote {out}", file=sys.stdout)
+    print(
+        f"{result['kind']} sweep: {len(result['points'])} points ({result['items_run']} items run, "
+        f"{result['items_reused']} reused), {wall:.1f} s {result['ran']}; wrote {out}",
+        file=sys.stdout,
+    )
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ sequence)` resets whatever an agent carries (the random policy reseeds from its 
 sequence id). A worker builds each agent once (`from_args` with the command's own agent options,
 `experiments.registry.agent_options`) and keeps it for the next sequences it is handed.
 """
+
 from __future__ import annotations
 
 import json
@@ -41,16 +42,16 @@ from .registry import agent_options, build
 class Job:
     """One agent's evaluation on some canonical sequences, written to `out`."""
 
-    agent_name: str            # the registry name
-    options: object            # the agent's options it is built from (experiments.registry.agent_options)
-    domain: str                # the domain folder the layout was compiled from
-    model: object              # the compiled layout
-    agent: object              # the agent, built here: its name and config name the results
+    agent_name: str  # the registry name
+    options: object  # the agent's options it is built from (experiments.registry.agent_options)
+    domain: str  # the domain folder the layout was compiled from
+    model: object  # the compiled layout
+    agent: object  # the agent, built here: its name and config name the results
     ids: list
     out: str
     force: bool = False
-    protocol: str = DEFAULT_PROTOCOL   # the failure protocol the command plays under (--failure-protocol)
-    log: str | None = None     # the agent's JSON-lines log (set_log), if it keeps one
+    protocol: str = DEFAULT_PROTOCOL  # the failure protocol the command plays under (--failure-protocol)
+    log: str | None = None  # the agent's JSON-lines log (set_log), if it keeps one
 
 
 def _load(path: Path, what: str) -> dict | None:
@@ -99,9 +100,12 @@ def _reusable_part(job: Job, seq_id: int) -> dict | None:
     try:
         part = _load(path, "sequence results")
     except DomainError:
-        return None                                   # half a file: played again
-    if difference(part, job.agent, job.model, job.protocol) is None and part.get("sequence") == seq_id \
-            and isinstance(part.get("rows"), list):
+        return None  # half a file: played again
+    if (
+        difference(part, job.agent, job.model, job.protocol) is None
+        and part.get("sequence") == seq_id
+        and isinstance(part.get("rows"), list)
+    ):
         return part
     return None
 
@@ -124,9 +128,16 @@ def play_item(item: dict) -> dict:
     t0 = time.perf_counter()
     protocol = item.get("protocol", DEFAULT_PROTOCOL)
     rows = play_sequence(model, agent, seq, protocol=protocol)
-    return {"agent": agent.name, **identity(model), "layout": model.layout, "config": agent.config,
-            "failure_protocol": protocol, "sequence": seq.id, "rows": rows,
-            "wall_seconds": round(time.perf_counter() - t0, 3)}
+    return {
+        "agent": agent.name,
+        **identity(model),
+        "layout": model.layout,
+        "config": agent.config,
+        "failure_protocol": protocol,
+        "sequence": seq.id,
+        "rows": rows,
+        "wall_seconds": round(time.perf_counter() - t0, 3),
+    }
 
 
 # ---- the driver ----------------------------------------------------------------------------
@@ -146,8 +157,17 @@ def play_over_workers(jobs: list, workers: int = 1, use_ray: bool = False, progr
             if not job.force and _reusable_part(job, i) is not None:
                 reused += 1
                 continue
-            items.append({"agent": job.agent_name, "options": asdict(job.options), "domain": job.domain,
-                          "layout": job.model.layout, "sequence": i, "log": job.log, "protocol": job.protocol})
+            items.append(
+                {
+                    "agent": job.agent_name,
+                    "options": asdict(job.options),
+                    "domain": job.domain,
+                    "layout": job.model.layout,
+                    "sequence": i,
+                    "log": job.log,
+                    "protocol": job.protocol,
+                }
+            )
             owners.append(j)
 
     def write_part(k, result, meta):
@@ -158,12 +178,17 @@ def play_over_workers(jobs: list, workers: int = 1, use_ray: bool = False, progr
         write_json(part_path(job.out, result["sequence"]), {**result, "provenance": {**prov, **meta}})
 
     t0 = time.perf_counter()
-    run_items(play_item, items, workers=workers, use_ray=use_ray, on_result=write_part, progress=progress,
-              desc="sequences")
+    run_items(
+        play_item, items, workers=workers, use_ray=use_ray, on_result=write_part, progress=progress, desc="sequences"
+    )
     for job in jobs:
         merge_parts(job)
-    return {"items": len(items), "reused": reused, "wall": time.perf_counter() - t0,
-            "played": sorted({item["sequence"] for item in items})}
+    return {
+        "items": len(items),
+        "reused": reused,
+        "wall": time.perf_counter() - t0,
+        "played": sorted({item["sequence"] for item in items}),
+    }
 
 
 def merge_parts(job: Job) -> None:
@@ -174,8 +199,15 @@ def merge_parts(job: Job) -> None:
     partial = Path(f"{job.out}.partial.json")
     saved = _load(partial, "partial results") if partial.is_file() else None
     if saved is None or job.force or difference(saved, job.agent, job.model, job.protocol) is not None:
-        saved = {"agent": job.agent.name, **identity(job.model), "layout": job.model.layout,
-                 "config": job.agent.config, "failure_protocol": job.protocol, "wall_seconds": 0.0, "done": {}}
+        saved = {
+            "agent": job.agent.name,
+            **identity(job.model),
+            "layout": job.model.layout,
+            "config": job.agent.config,
+            "failure_protocol": job.protocol,
+            "wall_seconds": 0.0,
+            "done": {},
+        }
     merged = []
     for i in job.ids:
         part = _reusable_part(job, i)
@@ -184,8 +216,11 @@ def merge_parts(job: Job) -> None:
             saved["wall_seconds"] = saved.get("wall_seconds", 0.0) + part["wall_seconds"]
             prov = part.get("provenance") or {}
             saved.setdefault("provenance_of", {})[str(i)] = {
-                "commit": prov.get("commit"), "date_utc": prov.get("written"),
-                "host": prov.get("host"), "pid": prov.get("pid")}
+                "commit": prov.get("commit"),
+                "date_utc": prov.get("written"),
+                "host": prov.get("host"),
+                "pid": prov.get("pid"),
+            }
             merged.append(part_path(job.out, i))
     write_json(partial, saved)
     for path in merged:

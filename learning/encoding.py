@@ -19,6 +19,7 @@ V(s, τ) = max_a Q(s, τ, a) = Q(s, τ, AUTO) for a satisfied τ and the prepare
 value V_AP(s) = Σ_τ P(τ) max_a Q(s, τ, a) needs no special case. AUTO's label is
 its own type value with every argument at *none*.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -38,12 +39,12 @@ class Encoding:
         self.factored = factored_actions(model)
         self.n_atoms = model.n_atoms
         self.n_words = self.bm.n_words
-        self.n_actions = model.n_actions + 1           # ground actions, then AUTO
+        self.n_actions = model.n_actions + 1  # ground actions, then AUTO
         self.AUTO = model.n_actions
         fa = self.factored
         self.heads = list(fa.heads)
         self.vocab = [list(fa.vocab[0]) + [AUTO_TYPE]] + [list(v) for v in fa.vocab[1:]]
-        auto_row = [len(fa.vocab[0])] + [len(v) - 1 for v in fa.vocab[1:]]   # none for every argument
+        auto_row = [len(fa.vocab[0])] + [len(v) - 1 for v in fa.vocab[1:]]  # none for every argument
         self.labels = np.vstack([fa.labels, np.array([auto_row], dtype=np.int64)])
         self.action_type = self.labels[:, 0]
         self.type_names = self.vocab[0]
@@ -68,7 +69,7 @@ class Encoding:
         self.task_types, self.task_feat = types, feat
         self.task_prob = np.asarray(self.model.tasks.probabilities, dtype=np.float64)
         self.task_prob = self.task_prob / self.task_prob.sum()
-        self.support = np.flatnonzero(self.task_prob > 0)   # the tasks V_AP averages over
+        self.support = np.flatnonzero(self.task_prob > 0)  # the tasks V_AP averages over
 
     def _task_goals(self) -> None:
         # Every binding of every task goal as packed masks, for batched satisfaction tests.
@@ -81,7 +82,7 @@ class Encoding:
         self.goal_pos = self.bm.pack(pos)
         self.goal_neg = self.bm.pack(neg)
         self.goal_owner = np.array(owner, dtype=np.int64)
-        self.goal_of = np.zeros((len(owner), len(self.model.tasks)), dtype=np.float32)   # binding -> task
+        self.goal_of = np.zeros((len(owner), len(self.model.tasks)), dtype=np.float32)  # binding -> task
         self.goal_of[np.arange(len(owner)), self.goal_owner] = 1.0
 
     # ---- batched features ------------------------------------------------
@@ -102,7 +103,7 @@ class Encoding:
         for w in range(self.n_words):
             s = packed[:, w, None]
             ok &= ((~s & self.goal_pos[None, :, w]) | (s & self.goal_neg[None, :, w])) == 0
-        return (ok.astype(np.float32) @ self.goal_of) > 0     # some binding of the task's goal holds
+        return (ok.astype(np.float32) @ self.goal_of) > 0  # some binding of the task's goal holds
 
     def applicable(self, packed: np.ndarray) -> np.ndarray:
         """(N, n_actions) bool: applicable ground actions, AUTO column False."""
@@ -125,6 +126,12 @@ class Encoding:
 
     def signature(self) -> dict:
         """What a checkpoint must agree on to be used with this layout."""
-        return {"domain": self.model.name, "layout": self.model.layout, "atoms": self.n_atoms,
-                "actions": self.n_actions, "obs_dim": self.obs_dim, "tasks": len(self.model.tasks),
-                "vocab": [len(v) for v in self.vocab]}
+        return {
+            "domain": self.model.name,
+            "layout": self.model.layout,
+            "atoms": self.n_atoms,
+            "actions": self.n_actions,
+            "obs_dim": self.obs_dim,
+            "tasks": len(self.model.tasks),
+            "vocab": [len(v) for v in self.vocab],
+        }

@@ -48,6 +48,7 @@ folder's lock (`learning.q.training.train_run`), and the export holds it in turn
 starts on the run mid-export. A run stopped before its configured step count is exported
 as it is, with a one-line note on stderr.
 """
+
 from __future__ import annotations
 
 import json
@@ -71,10 +72,10 @@ from planning.parallel import results_provenance
 
 MILESTONES = (50_000, 100_000, 250_000, 500_000)
 PRECISION = "float16"
-PROBE_STATES = 1000           # (state, task) pairs on which a float16 checkpoint must act as its float32 source
-TIE = 0.01                    # Q gaps below this are ties (trained values are tens to hundreds)
-CURVE_EVERY = 5_000           # steps between the rows of a run's exported curve
-CURVE_KEYS = ("success_rate", "task_return", "selected_q", "td_target")      # Figure A.1's panels
+PROBE_STATES = 1000  # (state, task) pairs on which a float16 checkpoint must act as its float32 source
+TIE = 0.01  # Q gaps below this are ties (trained values are tens to hundreds)
+CURVE_EVERY = 5_000  # steps between the rows of a run's exported curve
+CURVE_KEYS = ("success_rate", "task_return", "selected_q", "td_target")  # Figure A.1's panels
 
 
 def compact(payload: dict, source: str | None = None, half: bool = True) -> dict:
@@ -87,8 +88,12 @@ def compact(payload: dict, source: str | None = None, half: bool = True) -> dict
 
 def compact_gnn(payload: dict, source: str | None = None) -> dict:
     """A GNN checkpoint with its weights in float16 (`read_gnn_checkpoint` casts them back)."""
-    return {**payload, "model": to_half(payload["model"]), "precision": PRECISION,
-            **({"source_sha256": source} if source else {})}
+    return {
+        **payload,
+        "model": to_half(payload["model"]),
+        "precision": PRECISION,
+        **({"source_sha256": source} if source else {}),
+    }
 
 
 def greedy_loss(payload: dict, small: dict, model, n: int = PROBE_STATES) -> float:
@@ -128,7 +133,7 @@ def key_figures(logs: list[dict], evals: list[dict], refill: str = "refill-water
     if not logs:
         return {"steps": 0}
     last = logs[-1]["step"]
-    cumulative, done, prev = {}, 0.0, 0          # refill-water actions since step 0, over the steps
+    cumulative, done, prev = {}, 0.0, 0  # refill-water actions since step 0, over the steps
     for r in logs:
         done += (r.get("action_share", {}).get(refill) or 0.0) * (r["step"] - prev)
         prev = r["step"]
@@ -140,30 +145,44 @@ def key_figures(logs: list[dict], evals: list[dict], refill: str = "refill-water
             continue
         row = max(before, key=lambda r: r["step"])
         ev = [e for e in evals if e["step"] <= m]
-        at[str(m)] = {"step": row["step"], "success_last_100": row["success_rate"],
-                      "selected_q": round(row["selected_q"], 3), "td_target": round(row["td_target"], 3),
-                      "refill_share": row.get("action_share", {}).get(refill),
-                      "refill_share_cumulative": cumulative[row["step"]],
-                      **({"greedy": _eval(ev[-1])} if ev else {})}
+        at[str(m)] = {
+            "step": row["step"],
+            "success_last_100": row["success_rate"],
+            "selected_q": round(row["selected_q"], 3),
+            "td_target": round(row["td_target"], 3),
+            "refill_share": row.get("action_share", {}).get(refill),
+            "refill_share_cumulative": cumulative[row["step"]],
+            **({"greedy": _eval(ev[-1])} if ev else {}),
+        }
     peak = max(logs, key=lambda r: abs(r["selected_q"]) if r["selected_q"] == r["selected_q"] else 0.0)
     best = max(evals, key=lambda e: (e["success_rate"], e["task_return"])) if evals else None
     seconds, prev = 0.0, 0
-    for r in logs:                       # each row's rate is measured over the steps since the row before
+    for r in logs:  # each row's rate is measured over the steps since the row before
         if r.get("steps_per_s"):
             seconds += (r["step"] - prev) / r["steps_per_s"]
         prev = r["step"]
     refills = [(r.get("action_share", {}).get(refill) or 0.0, r["step"]) for r in logs]
     top = max(refills)
     top_cumulative = max((share, step) for step, share in cumulative.items())
-    return {"steps": last, "at": at, "best_greedy": _eval(best) if best else None,
-            "peak_selected_q": {"step": peak["step"], "selected_q": round(peak["selected_q"], 3)},
-            "peak_refill_share": {"step": top[1], "share": top[0]},
-            "peak_refill_share_cumulative": {"step": top_cumulative[1], "share": top_cumulative[0]},
-            "train_hours": round(seconds / 3600, 3),
-            "steps_per_s_median": _median([r["steps_per_s"] for r in logs if r.get("steps_per_s")]),
-            "curve": [{"step": r["step"], **{k: _short(r[k]) for k in CURVE_KEYS if k in r},
-                       "refill_share_cumulative": cumulative[r["step"]]}
-                      for r in logs if r["step"] % CURVE_EVERY == 0 or r is logs[-1]]}
+    return {
+        "steps": last,
+        "at": at,
+        "best_greedy": _eval(best) if best else None,
+        "peak_selected_q": {"step": peak["step"], "selected_q": round(peak["selected_q"], 3)},
+        "peak_refill_share": {"step": top[1], "share": top[0]},
+        "peak_refill_share_cumulative": {"step": top_cumulative[1], "share": top_cumulative[0]},
+        "train_hours": round(seconds / 3600, 3),
+        "steps_per_s_median": _median([r["steps_per_s"] for r in logs if r.get("steps_per_s")]),
+        "curve": [
+            {
+                "step": r["step"],
+                **{k: _short(r[k]) for k in CURVE_KEYS if k in r},
+                "refill_share_cumulative": cumulative[r["step"]],
+            }
+            for r in logs
+            if r["step"] % CURVE_EVERY == 0 or r is logs[-1]
+        ],
+    }
 
 
 def _short(x):
@@ -195,16 +214,29 @@ def dataset_figures(folder: Path) -> dict:
         raise DomainError(folder / "meta.json", f"not a GNN dataset's metadata ({type(e).__name__}: {e})") from None
     if not len(kinds) == len(c_ap) == len(secs) == meta.get("n", len(kinds)) or not len(kinds):
         raise DomainError(folder / "meta.json", "its kinds, labels and label times do not count the same states")
-    spread = lambda x, d: {k: round(float(f(x)), d) for k, f in
-                           (("mean", np.mean), ("min", np.min), ("median", np.median), ("max", np.max))}
+    spread = lambda x, d: {
+        k: round(float(f(x)), d)
+        for k, f in (("mean", np.mean), ("min", np.min), ("median", np.median), ("max", np.max))
+    }
     cfg = meta.get("config", {})
-    return {"dataset": str(folder), "domain": meta.get("domain"), "layout": meta.get("layout"),
-            "variant": "augmented" if cfg.get("augmented", "prepared" in kinds) else "faithful",
-            "states": len(kinds), "kinds": dict(Counter(kinds)), "tasks": len(meta.get("tasks", [])),
-            "features": len(meta.get("feature_names", [])), "config": cfg, "c_ap": spread(c_ap, 2),
-            "label_seconds": spread(secs, 4),
-            **{k: meta[k] for k in ("seconds_faithful_states", "seconds_collecting_and_labelling",
-                                    "label_cpu_seconds") if k in meta}}
+    return {
+        "dataset": str(folder),
+        "domain": meta.get("domain"),
+        "layout": meta.get("layout"),
+        "variant": "augmented" if cfg.get("augmented", "prepared" in kinds) else "faithful",
+        "states": len(kinds),
+        "kinds": dict(Counter(kinds)),
+        "tasks": len(meta.get("tasks", [])),
+        "features": len(meta.get("feature_names", [])),
+        "config": cfg,
+        "c_ap": spread(c_ap, 2),
+        "label_seconds": spread(secs, 4),
+        **{
+            k: meta[k]
+            for k in ("seconds_faithful_states", "seconds_collecting_and_labelling", "label_cpu_seconds")
+            if k in meta
+        },
+    }
 
 
 def is_gnn_run(run: Path) -> bool:
@@ -226,10 +258,13 @@ def default_names(run: Path, gnn: bool) -> tuple[str, str]:
         try:
             augmented = json.loads((Path(cfg.get("data", "")) / "meta.json").read_text())["config"]["augmented"]
         except (OSError, KeyError, TypeError, json.JSONDecodeError):
-            raise DomainError(run, f"cannot tell the dataset variant from {cfg.get('data')}/meta.json; "
-                                   "pass --out and --figures") from None
-        name = (f"gnn-{'augmented' if augmented else 'faithful'}-{file_name(p.get('layout'), best, 'layout')}"
-                f"-seed{file_name(cfg.get('seed'), best, 'config.seed')}")
+            raise DomainError(
+                run, f"cannot tell the dataset variant from {cfg.get('data')}/meta.json; pass --out and --figures"
+            ) from None
+        name = (
+            f"gnn-{'augmented' if augmented else 'faithful'}-{file_name(p.get('layout'), best, 'layout')}"
+            f"-seed{file_name(cfg.get('seed'), best, 'config.seed')}"
+        )
     else:
         p = read_checkpoint(best)
         cfg = p.get("config", {})
@@ -238,8 +273,10 @@ def default_names(run: Path, gnn: bool) -> tuple[str, str]:
         name = f"rl-{rl_name(cfg)}"
     domain = p.get("domain") or (p.get("signature") or {}).get("domain")
     prefix = "" if domain in (None, "restaurant") else f"{file_name(domain, best, 'domain')}-"
-    return (str(file_in("checkpoints", f"{prefix}{name}.pt", best, "its settings")),
-            str(file_in("results", f"{prefix}training-{name.removeprefix('rl-')}.json", best, "its settings")))
+    return (
+        str(file_in("checkpoints", f"{prefix}{name}.pt", best, "its settings")),
+        str(file_in("results", f"{prefix}training-{name.removeprefix('rl-')}.json", best, "its settings")),
+    )
 
 
 def rl_name(cfg: dict, varied: str = "") -> str:
@@ -250,7 +287,7 @@ def rl_name(cfg: dict, varied: str = "") -> str:
 
 
 # ---- replacing what is there ----------------------------------------------------------------
-FIRST = ("out", "data", "steps", "epochs")        # what tells runs apart first: their folder, their length
+FIRST = ("out", "data", "steps", "epochs")  # what tells runs apart first: their folder, their length
 LABELS = {"out": "run folder", "data": "dataset"}
 OLD_FIGURE_KEYS = ("domain", "layout", "horizon", "seed", "gamma", *LEGACY)
 """What a Q-learning run's figures without a 'config' record of its settings, at top level ('domain' is its
@@ -265,8 +302,9 @@ def config_difference(saved: dict, new: dict, keys=None) -> str | None:
     """The first training setting in which two runs differ ('run folder ..., not ...'), or None: the run
     folder (or a GNN's dataset) and the length first, then the others by name; a setting missing from a
     file written before it existed counts as what such runs had (LEGACY). `keys`: only those."""
-    keys = sorted(set(saved) | set(new) if keys is None else keys,
-                  key=lambda k: (FIRST.index(k) if k in FIRST else len(FIRST), k))
+    keys = sorted(
+        set(saved) | set(new) if keys is None else keys, key=lambda k: (FIRST.index(k) if k in FIRST else len(FIRST), k)
+    )
     for key in keys:
         a, b = (_norm(key, d.get(key, LEGACY.get(key))) for d in (saved, new))
         if a != b:
@@ -313,11 +351,15 @@ def may_write(path: Path, new: dict, force: bool, read, what: str, option: str) 
     try:
         saved = read(path)
     except DomainError as e:
-        raise DomainError(path, f"is not a {what} this export would replace ({e.reason}); pass --force to "
-                                f"replace it, or {option} another file") from None
+        raise DomainError(
+            path,
+            f"is not a {what} this export would replace ({e.reason}); pass --force to "
+            f"replace it, or {option} another file",
+        ) from None
     if not isinstance(saved, dict):
-        raise DomainError(path, f"is not a {what} this export would replace; pass --force to replace it, "
-                                f"or {option} another file")
+        raise DomainError(
+            path, f"is not a {what} this export would replace; pass --force to replace it, or {option} another file"
+        )
     if "source_sha256" in new:
         diff = run_difference(saved, new)
         same = saved.get("source_sha256") == new["source_sha256"]
@@ -327,8 +369,9 @@ def may_write(path: Path, new: dict, force: bool, read, what: str, option: str) 
         diff = run_difference(old, mine, keys)
         same = _without_provenance(saved) == _without_provenance(json.loads(json.dumps(new)))
     if diff is not None:
-        raise DomainError(path, f"the {what} of another run ({diff}); pass --force to replace it, "
-                                f"or {option} another file")
+        raise DomainError(
+            path, f"the {what} of another run ({diff}); pass --force to replace it, or {option} another file"
+        )
     return not same
 
 
@@ -354,8 +397,9 @@ def exporting(folder: Path, what: str = "run"):
     try:
         lock.__enter__()
     except DomainError:
-        raise DomainError(folder, f"is still being written (a trainer holds the {what}); export it when it "
-                                  "ends") from None
+        raise DomainError(
+            folder, f"is still being written (a trainer holds the {what}); export it when it ends"
+        ) from None
     except OSError:
         lock = None
     try:
@@ -380,8 +424,9 @@ def unfinished(run: Path, payload: dict, logs: list, evals: list) -> str | None:
 
 
 # ---- exports ---------------------------------------------------------------------------------
-def export_gnn(run: Path, out: Path, figures: Path | None, force: bool = False,
-               written: list | None = None) -> tuple[dict, dict]:
+def export_gnn(
+    run: Path, out: Path, figures: Path | None, force: bool = False, written: list | None = None
+) -> tuple[dict, dict]:
     """The compact GNN checkpoint and the run's summary.json (with where it came from); everything checked
     before anything is written (see the module's docstring). Returns (compact payload, figures); the files
     written go on `written` (those already this export are kept as they are)."""
@@ -396,8 +441,9 @@ def export_gnn(run: Path, out: Path, figures: Path | None, force: bool = False,
             raise DomainError(run / "summary.json", f"cannot read the run's summary ({type(e).__name__})") from None
         figs = {"run": str(run), "checkpoint": str(out), "checkpoint_epoch": small.get("epoch"), **summary}
         write = may_write(out, small, force, read_gnn_checkpoint, "GNN checkpoint", "--out")
-        write_figs = figures is not None and (may_write(figures, figs, force, _read_json, "key figures", "--figures")
-                                              or write)
+        write_figs = figures is not None and (
+            may_write(figures, figs, force, _read_json, "key figures", "--figures") or write
+        )
         if write:
             save_gnn_checkpoint(out, small)
         if write_figs:
@@ -407,8 +453,9 @@ def export_gnn(run: Path, out: Path, figures: Path | None, force: bool = False,
     return small, figs
 
 
-def export(run: Path, out: Path, figures: Path | None, force: bool = False,
-           written: list | None = None) -> tuple[dict, dict]:
+def export(
+    run: Path, out: Path, figures: Path | None, force: bool = False, written: list | None = None
+) -> tuple[dict, dict]:
     """Write the compact checkpoint (and the key figures); returns (compact payload, figures); the files written
     go on `written` (those already this export are kept as they are). Everything is read and checked before
     anything is written (see the module's docstring)."""
@@ -419,20 +466,32 @@ def export(run: Path, out: Path, figures: Path | None, force: bool = False,
         logs, evals = split_metrics(run / "metrics.jsonl")
         small, loss = faithful_compact(payload, sha256(best))
         cfg = payload.get("config", {})
-        recorded = {k: payload[k] for k in DOMAIN_KEYS if k in payload} or \
-            {"domain": payload.get("signature", {}).get("domain")}       # a run from before domains were recorded
-        figs = {"run": str(run), "checkpoint": str(out), "checkpoint_step": payload.get("step"),
-                "checkpoint_precision": small["precision"], "float16_greedy_loss": loss, **recorded,
-                **{k: cfg.get(k) for k in ("layout", "horizon", "seed", "steps", "gamma")},
-                **{k: cfg.get(k, was) for k, was in LEGACY.items()}, "config": cfg,
-                **key_figures(logs, evals)}
+        recorded = {k: payload[k] for k in DOMAIN_KEYS if k in payload} or {
+            "domain": payload.get("signature", {}).get("domain")
+        }  # a run from before domains were recorded
+        figs = {
+            "run": str(run),
+            "checkpoint": str(out),
+            "checkpoint_step": payload.get("step"),
+            "checkpoint_precision": small["precision"],
+            "float16_greedy_loss": loss,
+            **recorded,
+            **{k: cfg.get(k) for k in ("layout", "horizon", "seed", "steps", "gamma")},
+            **{k: cfg.get(k, was) for k, was in LEGACY.items()},
+            "config": cfg,
+            **key_figures(logs, evals),
+        }
         write = may_write(out, small, force, read_checkpoint, "checkpoint", "--out")
-        write_figs = figures is not None and (may_write(Path(figures), figs, force, _read_json, "key figures",
-                                                        "--figures") or write)
+        write_figs = figures is not None and (
+            may_write(Path(figures), figs, force, _read_json, "key figures", "--figures") or write
+        )
         short = unfinished(run, payload, logs, evals)
         if short:
-            print(f"{run}: unfinished, {short} (stopped before its end; rerun its training command to finish "
-                  "it); exported as it is", file=sys.stderr)
+            print(
+                f"{run}: unfinished, {short} (stopped before its end; rerun its training command to finish "
+                "it); exported as it is",
+                file=sys.stderr,
+            )
         if write:
             save_checkpoint(out, small)
         if write_figs:
@@ -447,14 +506,26 @@ def _done(path: Path, written: list) -> str:
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0], domain=False, layout=False,
-                   helps={"out": "compact checkpoint (default: checkpoints/rl-<horizon>-<layout>-seed<N>.pt, "
-                                 "checkpoints/gnn-<variant>-<layout>-seed<N>.pt)"})
-    p.add_argument("run", help="a learning.dqn run folder (best.pt, metrics.jsonl), a learning.gnn_train one "
-                               "(best.pt, summary.json) or a learning.gnn_dataset folder (meta.json)")
+    p = cli.parser(
+        __doc__.splitlines()[0],
+        domain=False,
+        layout=False,
+        helps={
+            "out": "compact checkpoint (default: checkpoints/rl-<horizon>-<layout>-seed<N>.pt, "
+            "checkpoints/gnn-<variant>-<layout>-seed<N>.pt)"
+        },
+    )
+    p.add_argument(
+        "run",
+        help="a learning.dqn run folder (best.pt, metrics.jsonl), a learning.gnn_train one "
+        "(best.pt, summary.json) or a learning.gnn_dataset folder (meta.json)",
+    )
     p.add_argument("--figures", help="key figures JSON (default: results/training-<checkpoint name without rl->.json)")
-    p.add_argument("--force", action="store_true", help="replace a checkpoint or figures file exported from another "
-                                                        "run (or one that is no export)")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace a checkpoint or figures file exported from another run (or one that is no export)",
+    )
 
     def run():
         args = p.parse_args()
@@ -470,13 +541,16 @@ def main() -> None:
                 name = f"dataset-gnn-{figs['variant']}-{file_name(figs['layout'], meta, 'layout')}.json"
                 figures = Path(args.figures or file_in("results", name, meta, "layout"))
                 cli.check_writable(figures)
-                written = [figures] if may_write(figures, figs, args.force, _read_json, "key figures",
-                                                 "--figures") else []
+                written = (
+                    [figures] if may_write(figures, figs, args.force, _read_json, "key figures", "--figures") else []
+                )
                 if written:
                     write_json(figures, {**figs, "provenance": results_provenance(figs)})
-            print(f"{_done(figures, written)}: {figs['states']:,} states ("
-                  + ", ".join(f"{v:,} {k}" for k, v in figs["kinds"].items())
-                  + f"), mean C_AP {figs['c_ap']['mean']:,.1f}")
+            print(
+                f"{_done(figures, written)}: {figs['states']:,} states ("
+                + ", ".join(f"{v:,} {k}" for k, v in figs["kinds"].items())
+                + f"), mean C_AP {figs['c_ap']['mean']:,.1f}"
+            )
             return
         gnn = is_gnn_run(folder)
         names = default_names(folder, gnn) if not (args.out and args.figures) else (args.out, args.figures)
@@ -486,18 +560,26 @@ def main() -> None:
         if gnn:
             written = []
             small, figs = export_gnn(folder, out, figures, force=args.force, written=written)
-            print(f"{_done(out, written)} ({out.stat().st_size / 1e3:.0f} KB, {PRECISION}, epoch {small.get('epoch')}, "
-                  f"validation L1 {figs['best_val_l1']:.2f}) and {_done(figures, written)}")
+            print(
+                f"{_done(out, written)} ({out.stat().st_size / 1e3:.0f} KB, {PRECISION}, epoch {small.get('epoch')}, "
+                f"validation L1 {figs['best_val_l1']:.2f}) and {_done(figures, written)}"
+            )
             return
         written = []
         small, figs = export(folder, out, figures, force=args.force, written=written)
         at = figs.get("at", {})
-        kept = "" if small["precision"] == PRECISION else (f": float16 would give up {figs['float16_greedy_loss']:,.4g}"
-                                                        f" of value on a probe state's greedy action")
-        print(f"{_done(out, written)} ({out.stat().st_size / 1e3:.0f} KB, {small['precision']}{kept}, step "
-              f"{small.get('step')}) and {_done(figures, written)}: {figs['steps']:,} steps in {figs['train_hours']} h; "
-              "success (last 100) "
-              + ", ".join(f"{int(k) // 1000}k {v['success_last_100']:.2f}" for k, v in at.items()))
+        kept = (
+            ""
+            if small["precision"] == PRECISION
+            else (
+                f": float16 would give up {figs['float16_greedy_loss']:,.4g} of value on a probe state's greedy action"
+            )
+        )
+        print(
+            f"{_done(out, written)} ({out.stat().st_size / 1e3:.0f} KB, {small['precision']}{kept}, step "
+            f"{small.get('step')}) and {_done(figures, written)}: {figs['steps']:,} steps in {figs['train_hours']} h; "
+            "success (last 100) " + ", ".join(f"{int(k) // 1000}k {v['success_last_100']:.2f}" for k, v in at.items())
+        )
 
     cli.run(run)
 

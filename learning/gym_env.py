@@ -64,6 +64,7 @@ completed on drawing, after this step), `tasks_done` (tasks ended in this episod
 Determinism: `reset(seed=s)` seeds the task stream and the world resets from `np_random`, and
 `step` draws nothing else, so a seed fixes the whole episode and the ones after it.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -94,9 +95,9 @@ def _folder(domain) -> Path:
 
 def _goal_reward(model) -> float:
     try:
-        return goal_reward(model)                         # domain.toml, or ./results calibration
+        return goal_reward(model)  # domain.toml, or ./results calibration
     except DomainError:
-        return goal_reward(model, ROOT / "results")       # the project's calibration files
+        return goal_reward(model, ROOT / "results")  # the project's calibration files
 
 
 class AnticipatoryEnv(gym.Env):
@@ -104,10 +105,20 @@ class AnticipatoryEnv(gym.Env):
 
     metadata = {"render_modes": ["ansi"], "render_fps": 4}
 
-    def __init__(self, domain: str = DEFAULT_DOMAIN, layout: str | None = None, *, factored: bool = False,
-                 observation: str = "box", horizon: str = "anticipatory", invalid_penalty: float | None = None,
-                 goal_reward: float | None = None, max_actions: int | None = None,
-                 tasks_per_reset: int | None = None, render_mode: str | None = None):
+    def __init__(
+        self,
+        domain: str = DEFAULT_DOMAIN,
+        layout: str | None = None,
+        *,
+        factored: bool = False,
+        observation: str = "box",
+        horizon: str = "anticipatory",
+        invalid_penalty: float | None = None,
+        goal_reward: float | None = None,
+        max_actions: int | None = None,
+        tasks_per_reset: int | None = None,
+        render_mode: str | None = None,
+    ):
         if horizon not in HORIZONS:
             raise DomainError("horizon", f"'{horizon}' is neither anticipatory nor myopic")
         if observation not in ("box", "multibinary"):
@@ -123,17 +134,18 @@ class AnticipatoryEnv(gym.Env):
         self.terminal_reset = bool(stream.get("terminal_reset", False))
         self.scale = cost_scale(model)
         self.r_goal = float(goal_reward if goal_reward is not None else _goal_reward(model))
-        self.invalid_penalty = float(invalid_penalty if invalid_penalty is not None
-                                     else max(model.action_cost) / self.scale)
+        self.invalid_penalty = float(
+            invalid_penalty if invalid_penalty is not None else max(model.action_cost) / self.scale
+        )
         n = self.enc.obs_dim
-        self.observation_space = (spaces.Box(0.0, 1.0, (n,), dtype=np.float32) if observation == "box"
-                                  else spaces.MultiBinary(n))
+        self.observation_space = (
+            spaces.Box(0.0, 1.0, (n,), dtype=np.float32) if observation == "box" else spaces.MultiBinary(n)
+        )
         self._int_obs = observation == "multibinary"
         fa = self.enc.factored
         self.heads, self.head_sizes = list(fa.heads), [len(v) for v in fa.vocab]
-        self.labels = fa.labels                            # (ground actions, heads): no AUTO row
-        self.action_space = (spaces.MultiDiscrete(self.head_sizes) if factored
-                             else spaces.Discrete(model.n_actions))
+        self.labels = fa.labels  # (ground actions, heads): no AUTO row
+        self.action_space = spaces.MultiDiscrete(self.head_sizes) if factored else spaces.Discrete(model.n_actions)
         self._stream: TaskStream | None = None
         self._world: PersistentWorld | None = None
 
@@ -160,13 +172,13 @@ class AnticipatoryEnv(gym.Env):
         if seed is not None or self._stream is None:
             self._stream = TaskStream(self.model, int(self.np_random.integers(2**63)))
             self._stream.tasks_per_reset = self.tasks_per_reset
-            self._world = PersistentWorld(self.model, max_actions=2**62)   # the budget is kept here
+            self._world = PersistentWorld(self.model, max_actions=2**62)  # the budget is kept here
         else:
             if self._world.task is not None:
-                self._world.abandon()                      # an unfinished task is given up
+                self._world.abandon()  # an unfinished task is given up
             k = self._stream.count % self.tasks_per_reset
             if self.horizon == "anticipatory" and k:
-                self._stream.count += self.tasks_per_reset - k   # the rest of the block is dropped
+                self._stream.count += self.tasks_per_reset - k  # the rest of the block is dropped
         self._episode_done = 0
         autos, _ = self._open_next(stop_at_block_end=False)
         self._update_mask()
@@ -193,10 +205,14 @@ class AnticipatoryEnv(gym.Env):
         policies return them), and so do floats that are whole numbers."""
         arr = np.asarray(action)
         shape = (len(self.head_sizes),) if self.factored else ()
-        whole = arr.dtype.kind in "iu" or (arr.dtype.kind == "f" and bool(np.all(np.isfinite(arr) & (arr == np.round(arr)))))
+        whole = arr.dtype.kind in "iu" or (
+            arr.dtype.kind == "f" and bool(np.all(np.isfinite(arr) & (arr == np.round(arr))))
+        )
         if arr.dtype == np.bool_ or not whole:
-            raise ValueError(f"action {action!r} is not {'a vector of integers' if self.factored else 'an integer'} "
-                             f"of {self.action_space}")
+            raise ValueError(
+                f"action {action!r} is not {'a vector of integers' if self.factored else 'an integer'} "
+                f"of {self.action_space}"
+            )
         if arr.shape != shape:
             raise ValueError(f"action {action!r} has shape {arr.shape}, not {shape} of {self.action_space}")
         value = arr.astype(np.int64) if self.factored else int(arr)
@@ -216,7 +232,7 @@ class AnticipatoryEnv(gym.Env):
     def step(self, action):
         if self._world is None or self._world.task is None:
             raise RuntimeError("call reset() first (the episode has ended)")
-        self.action_value(action)                          # a ValueError before anything changes
+        self.action_value(action)  # a ValueError before anything changes
         world = self._world
         a = self.ground_action(action)
         completed = abandoned = False
@@ -237,7 +253,7 @@ class AnticipatoryEnv(gym.Env):
         if completed or abandoned:
             o = world.outcomes[-1]
             finished = {"task": o.task, "cost": o.cost, "actions": self._task_actions, "success": o.success}
-            world.outcomes.clear()                         # outcomes are reported in info; keep memory flat
+            world.outcomes.clear()  # outcomes are reported in info; keep memory flat
             self._episode_done += 1
             block_end = self._stream.count % self.tasks_per_reset == 0
             if self.horizon == "myopic":
@@ -251,8 +267,9 @@ class AnticipatoryEnv(gym.Env):
                     terminated, truncated = self.terminal_reset, not self.terminal_reset
         self._update_mask()
         obs = self._obs()
-        info = self._info(completed=completed, abandoned=abandoned, invalid=a is None, finished=finished,
-                          auto_completed=autos)
+        info = self._info(
+            completed=completed, abandoned=abandoned, invalid=a is None, finished=finished, auto_completed=autos
+        )
         return obs, float(reward), terminated, truncated, info
 
     # ---- observation, masks, info ----------------------------------------------------------
@@ -271,7 +288,7 @@ class AnticipatoryEnv(gym.Env):
                     m[lab[:, h]] = 1
             else:
                 for m in heads:
-                    m[:] = 1                                # nothing applicable: every vector is a no-op
+                    m[:] = 1  # nothing applicable: every vector is a no-op
             self._head_masks = heads
             self._mask = np.concatenate(heads)
         else:
@@ -285,10 +302,18 @@ class AnticipatoryEnv(gym.Env):
         return self._mask.astype(bool)
 
     def _info(self, completed=False, abandoned=False, invalid=False, finished=None, auto_completed=()) -> dict:
-        info = {"task": self._task.name, "task_cost": self._task_cost, "task_actions": self._task_actions,
-                "completed": completed, "abandoned": abandoned, "invalid": invalid,
-                "finished": finished, "auto_completed": list(auto_completed),
-                "tasks_done": self._episode_done, "action_mask": self._mask.copy()}
+        info = {
+            "task": self._task.name,
+            "task_cost": self._task_cost,
+            "task_actions": self._task_actions,
+            "completed": completed,
+            "abandoned": abandoned,
+            "invalid": invalid,
+            "finished": finished,
+            "auto_completed": list(auto_completed),
+            "tasks_done": self._episode_done,
+            "action_mask": self._mask.copy(),
+        }
         if self.factored:
             info["head_masks"] = tuple(m.copy() for m in self._head_masks)
         return info
@@ -296,8 +321,9 @@ class AnticipatoryEnv(gym.Env):
     def render(self):
         if self.render_mode != "ansi":
             return None
-        return (f"task {self._task.name}: {self._task_actions} actions, cost {self._task_cost}\n"
-                + self.model.describe(self._world.state))
+        return f"task {self._task.name}: {self._task_actions} actions, cost {self._task_cost}\n" + self.model.describe(
+            self._world.state
+        )
 
 
 def env_ids(folder: Path) -> list[tuple[str, str]]:

@@ -8,6 +8,7 @@ build any other Python object (a hostile pickle whose `__reduce__` runs a
 command, a checkpoint of another program) with a one-line DomainError naming
 the file; nothing of it runs.
 """
+
 from __future__ import annotations
 
 import re
@@ -32,7 +33,9 @@ def to_plain(obj):
         if obj.dtype.hasobject:
             raise TypeError("a numpy array of Python objects is not plain data")
         raw = np.ascontiguousarray(obj)
-        data = torch.from_numpy(raw.reshape(-1).view(np.uint8).copy()) if raw.size else torch.zeros(0, dtype=torch.uint8)
+        data = (
+            torch.from_numpy(raw.reshape(-1).view(np.uint8).copy()) if raw.size else torch.zeros(0, dtype=torch.uint8)
+        )
         return {_ARRAY: data, "dtype": raw.dtype.str, "shape": list(raw.shape)}
     if isinstance(obj, np.generic):
         return obj.item()
@@ -51,6 +54,7 @@ def to_plain(obj):
 
 def _is_allowed_dict(obj) -> bool:
     from collections import OrderedDict
+
     return isinstance(obj, OrderedDict)
 
 
@@ -84,12 +88,16 @@ def refusal(e: Exception, what: str, head: bytes = b"") -> str:
     text = str(e)
     found = re.search(r"Unsupported global: GLOBAL ([\w.]+)", text)
     if found:
-        return (f"refused as a {what}: it would build Python objects ({found.group(1)}) on loading, "
-                f"not only {PLAIN}; nothing of it was run")
+        return (
+            f"refused as a {what}: it would build Python objects ({found.group(1)}) on loading, "
+            f"not only {PLAIN}; nothing of it was run"
+        )
     unpickler = re.search(r"WeightsUnpickler error:\s*([^\n]*)", text)
-    if unpickler and head[:1] == b"\x80":       # a pickle's protocol mark: a bare pickle, not a torch file
-        return (f"refused as a {what}: a bare pickle the safe loader cannot read "
-                f"({unpickler.group(1).strip()}); nothing of it was run")
+    if unpickler and head[:1] == b"\x80":  # a pickle's protocol mark: a bare pickle, not a torch file
+        return (
+            f"refused as a {what}: a bare pickle the safe loader cannot read "
+            f"({unpickler.group(1).strip()}); nothing of it was run"
+        )
     first = (unpickler.group(1) if unpickler else text).strip()
     first = first.splitlines()[0].split(". ")[0][:100] if first else ""
     kind = "cut short or not a torch file: " if isinstance(e, (OSError, RuntimeError, EOFError)) else ""
@@ -104,9 +112,9 @@ def load_plain(path, what: str = "checkpoint"):
         raise DomainError(path, f"no such {what}")
     try:
         with warnings.catch_warnings():
-            warnings.simplefilter("ignore")      # torch's note on a pickle protocol it does not expect
+            warnings.simplefilter("ignore")  # torch's note on a pickle protocol it does not expect
             return torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as e:      # torch raises many types for a truncated, foreign or hostile file
+    except Exception as e:  # torch raises many types for a truncated, foreign or hostile file
         with open(path, "rb") as f:
             head = f.read(2)
         raise DomainError(path, refusal(e, what, head)) from None

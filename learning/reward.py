@@ -8,6 +8,7 @@ domain.toml [reward], else R_goal from the layout's calibration file written by
 PDDL unit per reward unit: the restaurant's 100 makes its rewards 100 times
 smaller), said once on stderr.
 """
+
 from __future__ import annotations
 
 import json
@@ -33,8 +34,11 @@ def cost_scale(model) -> float:
         where = str(getattr(model, "files", {}).get("config", model.name))
         if where not in _warned:
             _warned.add(where)
-            print(f"warning: {where}: no [reward] cost_scale: 1 PDDL cost unit per reward unit (the rewards are "
-                  "-cost + R_goal; set [reward] cost_scale to scale them)", file=sys.stderr)
+            print(
+                f"warning: {where}: no [reward] cost_scale: 1 PDDL cost unit per reward unit (the rewards are "
+                "-cost + R_goal; set [reward] cost_scale to scale them)",
+                file=sys.stderr,
+            )
     return model.cost_scale
 
 
@@ -52,10 +56,12 @@ def goal_reward(model, results_dir="results") -> float:
         return float(reward["goal_reward"])
     path = calibration_path(model, results_dir)
     if not path.is_file():
-        raise DomainError(f"{model.name} {model.layout}",
-                          f"no completion reward: set [reward] goal_reward in {model.files['config']} "
-                          f"or run `python -m experiments.calibrate --domain {model.folder} "
-                          f"--layout {model.layout}` (writes {path})")
+        raise DomainError(
+            f"{model.name} {model.layout}",
+            f"no completion reward: set [reward] goal_reward in {model.files['config']} "
+            f"or run `python -m experiments.calibrate --domain {model.folder} "
+            f"--layout {model.layout}` (writes {path})",
+        )
     try:
         data = json.loads(path.read_text())
         value, domain, layout = float(data["r_goal"]), data.get("domain"), data.get("layout")

@@ -15,6 +15,7 @@ meet, the chain is optimal and the window counts as solved optimally.
 Every window is also appended as one JSON line to OUT.windows.jsonl as soon as
 it is planned, so the per-window times survive an interrupted sequence.
 """
+
 from __future__ import annotations
 
 import json
@@ -42,10 +43,15 @@ class ClairvoyantOracle(Planner):
     @classmethod
     def options(cls, p) -> None:
         p.add_argument("--K", type=int, default=3, help="tasks planned jointly (default: %(default)s)")
-        p.add_argument("--time-limit", type=float, default=60.0,
-                       help="seconds per window (default: %(default)s, as the committed runs)")
-        p.add_argument("--heuristic", default="pdb", choices=names("window"),
-                       help="joint search heuristic (default: %(default)s)")
+        p.add_argument(
+            "--time-limit",
+            type=float,
+            default=60.0,
+            help="seconds per window (default: %(default)s, as the committed runs)",
+        )
+        p.add_argument(
+            "--heuristic", default="pdb", choices=names("window"), help="joint search heuristic (default: %(default)s)"
+        )
 
     @classmethod
     def from_args(cls, args, model=None) -> "ClairvoyantOracle":
@@ -63,9 +69,12 @@ class ClairvoyantOracle(Planner):
         self.log = Path(log) if log else None
         self.name = f"clairvoyant-{K}"
         self.run_name = self.name if heuristic == "pdb" else f"{self.name}-{heuristic}"
-        self.config = {"K": K, "time_limit": time_limit,
-                       "search": f"astar({describe(heuristic, 'window')}) by f-levels, pathmax, reopening",
-                       "fallback": "the myopic chain (the current task's optimal plan executed)"}
+        self.config = {
+            "K": K,
+            "time_limit": time_limit,
+            "search": f"astar({describe(heuristic, 'window')}) by f-levels, pathmax, reopening",
+            "fallback": "the myopic chain (the current task's optimal plan executed)",
+        }
         self._model = None
         self._sequence = None
 
@@ -79,7 +88,7 @@ class ClairvoyantOracle(Planner):
             self._model = model
             self._bm = BatchedModel(model)
             self._joint = JointSearch(model, max_window=self.K)
-            self._myopic = MyopicOracle("internal", time_limit=float("inf"))    # the chain is not timed
+            self._myopic = MyopicOracle("internal", time_limit=float("inf"))  # the chain is not timed
             self._myopic.start(model, None)
 
     def plan(self, state: int, task, upcoming: list) -> Reply:
@@ -89,11 +98,17 @@ class ClairvoyantOracle(Planner):
             r = optimal_plan(self._bm, state, task, time_limit=self.time_limit)
         else:
             r = self._joint.plan(state, window, time_limit=self.time_limit, heuristic=self.heuristic)
-        info = {"window": [t.name for t in window], "window_cost": r.cost, "lower_bound": r.lower_bound,
-                "expansions": r.expansions, "window_seconds": round(time.perf_counter() - t0, 3),
-                "optimal": r.plan is not None, "bounded": False}
+        info = {
+            "window": [t.name for t in window],
+            "window_cost": r.cost,
+            "lower_bound": r.lower_bound,
+            "expansions": r.expansions,
+            "window_seconds": round(time.perf_counter() - t0, 3),
+            "optimal": r.plan is not None,
+            "bounded": False,
+        }
         plan = r.plan
-        if r.plan is None and not r.complete:       # out of time: the myopic chain bounds the window
+        if r.plan is None and not r.complete:  # out of time: the myopic chain bounds the window
             plan, info["window_cost"] = self._chain(state, window)
             info["bounded"] = True
             info["optimal"] = proven_optimal(info)
@@ -110,7 +125,7 @@ class ClairvoyantOracle(Planner):
         first = None
         for task in window:
             info = play_task(world, self._myopic, task)
-            if info and "executed" not in info:     # no plan: the chain has no cost
+            if info and "executed" not in info:  # no plan: the chain has no cost
                 return first or [], None
             if "executed" in info and first is None:
                 first = info["executed"]
@@ -121,13 +136,17 @@ class ClairvoyantOracle(Planner):
         windows = [r for r in rows if "window" in r]
         seconds = [r["window_seconds"] for r in windows] or [0.0]
         bounded = [r for r in windows if r.get("bounded") and r.get("window_cost") and r.get("lower_bound")]
-        return {"K": self.K,
-                "share_optimal": round(sum(r["optimal"] or proven_optimal(r) for r in windows) / max(1, len(windows)), 4),
-                "bounded_windows": len(bounded),
-                "bounded_mean_gap": round(statistics.mean(1 - r["lower_bound"] / r["window_cost"]
-                                                          for r in bounded), 4) if bounded else None,
-                "windows": len(windows), "median_window_seconds": statistics.median(seconds),
-                "max_window_seconds": max(seconds)}
+        return {
+            "K": self.K,
+            "share_optimal": round(sum(r["optimal"] or proven_optimal(r) for r in windows) / max(1, len(windows)), 4),
+            "bounded_windows": len(bounded),
+            "bounded_mean_gap": round(statistics.mean(1 - r["lower_bound"] / r["window_cost"] for r in bounded), 4)
+            if bounded
+            else None,
+            "windows": len(windows),
+            "median_window_seconds": statistics.median(seconds),
+            "max_window_seconds": max(seconds),
+        }
 
 
 def proven_optimal(window: dict) -> bool:
@@ -148,8 +167,10 @@ def main() -> None:
     r, out = play(model, agent, ids, RunOptions.from_args(args))
     windows = agent.summary(r.asked["per_task"])
     print(f"\nclairvoyant K={args.K}, {model.name} {model.layout}, sequences {cli.format_ids(ids)}")
-    print(f"{figures(r)}, share optimal {windows['share_optimal']}, window seconds median "
-          f"{windows['median_window_seconds']} max {windows['max_window_seconds']}")
+    print(
+        f"{figures(r)}, share optimal {windows['share_optimal']}, window seconds median "
+        f"{windows['median_window_seconds']} max {windows['max_window_seconds']}"
+    )
     print(what_ran(r))
 
 

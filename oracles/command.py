@@ -7,6 +7,7 @@ against the myopic oracle's results file of the layout. What a command prints
 is computed from the rows of the sequences it was asked for, and says whether
 it played them now or kept them from a finished file.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -49,13 +50,20 @@ class RunOptions:
 def run_options(p) -> None:
     """--force, --strict and --failure-protocol, the options of every evaluation (`RunOptions`) beside the
     shared --out and --no-progress of its `planning.cli.parser`."""
-    p.add_argument("--force", action="store_true",
-                   help="play every sequence asked for again, replacing a finished results file (even one made otherwise)")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="play every sequence asked for again, replacing a finished results file (even one made otherwise)",
+    )
     p.add_argument("--strict", action="store_true", help="exit non-zero if any planner timed out or crashed")
-    p.add_argument("--failure-protocol", default=DEFAULT_PROTOCOL, choices=list(FAILURE_PROTOCOLS),
-                   help="a failed task is completed by the optimal fallback, which is executed (default, SPEC.md), "
-                        "or abandoned where it stopped (the thesis's protocol; no improvement unless every task "
-                        "succeeds)")
+    p.add_argument(
+        "--failure-protocol",
+        default=DEFAULT_PROTOCOL,
+        choices=list(FAILURE_PROTOCOLS),
+        help="a failed task is completed by the optimal fallback, which is executed (default, SPEC.md), "
+        "or abandoned where it stopped (the thesis's protocol; no improvement unless every task "
+        "succeeds)",
+    )
 
 
 def play(model, agent, ids, options: RunOptions, before=None):
@@ -71,9 +79,18 @@ def play(model, agent, ids, options: RunOptions, before=None):
     elsewhere = {}
     if before is not None:
         elsewhere = before(out, log) or {}
-    r = evaluate(model, agent, ids, out, reference=reference_path(model), force=options.force,
-                 strict=options.strict, progress=options.progress,
-                 protocol=protocol, played_by_workers=elsewhere.get("played", ()))
+    r = evaluate(
+        model,
+        agent,
+        ids,
+        out,
+        reference=reference_path(model),
+        force=options.force,
+        strict=options.strict,
+        progress=options.progress,
+        protocol=protocol,
+        played_by_workers=elsewhere.get("played", ()),
+    )
     r.seconds = round(r.seconds + elsewhere.get("wall", 0.0), 1)
     return r, out
 
@@ -83,15 +100,19 @@ def what_ran(r) -> str:
     if r.played:
         verb = "wrote" if r.wrote else "played"
         return f"played sequences {cli.format_ids(r.played)} in {r.seconds}s; {verb} {r.out}"
-    return (f"nothing played: every sequence asked for was already in {r.out}, kept as it was "
-            f"(the file's runs took {r['wall_seconds']}s)")
+    return (
+        f"nothing played: every sequence asked for was already in {r.out}, kept as it was "
+        f"(the file's runs took {r['wall_seconds']}s)"
+    )
 
 
 def figures(r) -> str:
     """The headline figures of the sequences asked for, computed from their rows."""
     a = r.asked
-    line = (f"cost per task {a['cost_per_task']}, actions per task {a['actions_per_task']}, "
-            f"success rate {a['success_rate']}, improvement vs myopic {a['improvement_vs_myopic']}")
+    line = (
+        f"cost per task {a['cost_per_task']}, actions per task {a['actions_per_task']}, "
+        f"success rate {a['success_rate']}, improvement vs myopic {a['improvement_vs_myopic']}"
+    )
     if a.get("improvement_note"):
         line += f" ({a['improvement_note']})"
     return line

@@ -30,6 +30,7 @@ cannot place is labelled with a warning, "not reachable as far as I can tell".
 the state's atoms; it never replaces a labels file of another state, layout or domain content
 (nor any other file) unless --force.
 """
+
 from __future__ import annotations
 
 import json
@@ -48,7 +49,7 @@ from planning.errors import DomainError
 from planning.heuristics import HEURISTICS, build, choose, names
 from planning.search.cost_levels import CostLevels
 
-CHUNK = 1 << 16          # rows per goal test: keeps the (rows, conjunctions) arrays small
+CHUNK = 1 << 16  # rows per goal test: keeps the (rows, conjunctions) arrays small
 
 
 class TaskGoals:
@@ -59,7 +60,7 @@ class TaskGoals:
         self.tasks = list(tasks)
         self.probabilities = np.array([t.probability for t in self.tasks], dtype=float)
         ops = [(t, o) for t, task in enumerate(self.tasks) for o in task.bindings]
-        self.owner = np.array([t for t, _ in ops], dtype=np.int64)      # ascending by construction
+        self.owner = np.array([t for t, _ in ops], dtype=np.int64)  # ascending by construction
         self.pos = bm.pack([o.pos for _, o in ops])
         self.neg = bm.pack([o.neg for _, o in ops])
         self.starts = np.searchsorted(self.owner, np.arange(len(self.tasks)))
@@ -90,7 +91,7 @@ class CachedHeuristic:
 
     def __init__(self, inner, max_entries: int = 1_500_000):
         self.inner, self.max_entries = inner, max_entries
-        self.tables: dict[tuple, dict] = {}          # task indices -> {state bytes: h}; insertion order = age
+        self.tables: dict[tuple, dict] = {}  # task indices -> {state bytes: h}; insertion order = age
         self.size = 0
         self.calls = self.computed = 0
 
@@ -102,10 +103,10 @@ class CachedHeuristic:
         table = self.tables.pop(key, None)
         if table is None:
             table = {}
-        self.tables[key] = table                     # most recently used last
+        self.tables[key] = table  # most recently used last
         width = batch.shape[1] * batch.itemsize
         raw = np.ascontiguousarray(batch).tobytes()
-        rows = [raw[i: i + width] for i in range(0, n * width, width)]
+        rows = [raw[i : i + width] for i in range(0, n * width, width)]
         out = np.fromiter((table.get(r, -1) for r in rows), dtype=np.int64, count=n)
         miss = np.flatnonzero(out < 0)
         self.calls += n
@@ -130,17 +131,22 @@ class Label:
     """C_AP of one state with every task's optimal cost."""
 
     c_ap: float
-    costs: np.ndarray           # (T,) int64; -1 where no plan exists (then c_ap is inf)
+    costs: np.ndarray  # (T,) int64; -1 where no plan exists (then c_ap is inf)
     seconds: float
     closed: int
     complete: bool
 
     def as_json(self, tasks) -> dict:
         """{"c_ap", "tasks": [{"task", "probability", "cost"}]} as --out writes it."""
-        return {"c_ap": self.c_ap if np.isfinite(self.c_ap) else None,
-                "tasks": [{"task": t.name, "probability": t.probability,
-                           "cost": int(c) if c >= 0 else None} for t, c in zip(tasks, self.costs)],
-                "seconds": round(self.seconds, 4), "closed": self.closed}
+        return {
+            "c_ap": self.c_ap if np.isfinite(self.c_ap) else None,
+            "tasks": [
+                {"task": t.name, "probability": t.probability, "cost": int(c) if c >= 0 else None}
+                for t, c in zip(tasks, self.costs)
+            ],
+            "seconds": round(self.seconds, 4),
+            "closed": self.closed,
+        }
 
 
 class Labeller:
@@ -156,13 +162,19 @@ class Labeller:
     estimate is a table lookup). `tie_break`: within an f, lower h first (CostLevels); the same labels.
     """
 
-    def __init__(self, model, heuristic: str = "pdb", time_limit: float | None = None, cache: bool = True,
-                 tie_break: bool = False):
+    def __init__(
+        self,
+        model,
+        heuristic: str = "pdb",
+        time_limit: float | None = None,
+        cache: bool = True,
+        tie_break: bool = False,
+    ):
         self.model, self.time_limit, self.tie_break = model, time_limit, tie_break
         self.bm = BatchedModel(model)
         self.goals = TaskGoals(self.bm, model.tasks)
         self.heuristic = choose(heuristic, model, "multi-goal")
-        h = build(self.heuristic, self.bm, "multi-goal")        # None: blind, Dijkstra
+        h = build(self.heuristic, self.bm, "multi-goal")  # None: blind, Dijkstra
         if h is not None and cache and not HEURISTICS[self.heuristic].lookup:
             h = CachedHeuristic(h)
         self.h = h
@@ -177,22 +189,27 @@ class Labeller:
         def h(batch):
             return self.h(batch, [tasks[t] for t in np.flatnonzero(unsettled)])
 
-        levels = CostLevels(self.bm, state, time_limit=self.time_limit, heuristic=None if self.h is None else h,
-                            tie_break=self.tie_break)
+        levels = CostLevels(
+            self.bm,
+            state,
+            time_limit=self.time_limit,
+            heuristic=None if self.h is None else h,
+            tie_break=self.tie_break,
+        )
         for _, rows, _, g in levels:
             # Settle the tasks whose goal this level reaches, at the smallest g among its goal states.
             open_tasks = np.flatnonzero(unsettled)
             for lo in range(0, len(rows), CHUNK):
-                sat = goals.satisfied(rows[lo: lo + CHUNK], open_tasks)
+                sat = goals.satisfied(rows[lo : lo + CHUNK], open_tasks)
                 for j in np.flatnonzero(sat.any(0)):
                     t = open_tasks[j]
-                    c = int(g[lo: lo + CHUNK][sat[:, j]].min())
+                    c = int(g[lo : lo + CHUNK][sat[:, j]].min())
                     if unsettled[t] or c < costs[t]:
                         costs[t], unsettled[t] = c, False
             if not unsettled.any():
                 break
             if unsettled.sum() < len(open_tasks):
-                levels.rescore()             # the minimum is over fewer tasks now: states opened before may wait
+                levels.rescore()  # the minimum is over fewer tasks now: states opened before may wait
         solved = costs >= 0
         c_ap = float(goals.probabilities @ np.where(solved, costs, 0))
         if not solved.all():
@@ -218,7 +235,7 @@ def read_state(model, path) -> int:
         except json.JSONDecodeError as e:
             raise DomainError(path, f"malformed JSON: {e.msg} at line {e.lineno}") from None
         if not all(isinstance(a, str) for a in atoms):
-            raise DomainError(path, "must be a JSON list of atom strings like \"(at cup_0 shelf)\"")
+            raise DomainError(path, 'must be a JSON list of atom strings like "(at cup_0 shelf)"')
     else:
         atoms = _pddl_init_atoms(path, text)
     try:
@@ -230,6 +247,7 @@ def read_state(model, path) -> int:
 def _fluent(model, text: str, path) -> bool:
     """True for a fluent atom; False for a static fact of the layout (kept out of states)."""
     from planning.domain.grounding import parse_atom_text
+
     try:
         key = parse_atom_text(text)
     except ValueError as e:
@@ -253,9 +271,9 @@ def _pddl_init_atoms(path, text: str) -> list[str]:
         i += 1
     else:
         raise DomainError(path, "unbalanced parentheses in :init")
-    body = re.sub(r";[^\n]*", "", text[start + len("(:init"): i])
+    body = re.sub(r";[^\n]*", "", text[start + len("(:init") : i])
     atoms, depth, begin = [], 0, 0
-    for j, ch in enumerate(body):              # the top-level groups: atoms and (= ...) numeric facts
+    for j, ch in enumerate(body):  # the top-level groups: atoms and (= ...) numeric facts
         if ch == "(":
             if depth == 0:
                 begin = j
@@ -265,7 +283,7 @@ def _pddl_init_atoms(path, text: str) -> list[str]:
             if depth < 0:
                 raise DomainError(path, "unbalanced parentheses in :init")
             if depth == 0:
-                inner = body[begin + 1: j].strip()
+                inner = body[begin + 1 : j].strip()
                 if inner.startswith("="):
                     continue
                 if "(" in inner:
@@ -288,7 +306,7 @@ class ReachablePairs:
     they are taken as able to hold with anything, and preconditions on them as satisfiable. `max_rounds` caps
     the fixpoint; a capped analysis is not a proof (`complete` False)."""
 
-    MAX_CASES = 8            # conditional effects enumerated as subsets up to this many; beyond, one coarse case
+    MAX_CASES = 8  # conditional effects enumerated as subsets up to this many; beyond, one coarse case
 
     def __init__(self, model, max_rounds: int | None = None):
         n = self.n = model.n_atoms
@@ -304,14 +322,15 @@ class ReachablePairs:
                 pos, neg = pos & ~derived, neg & ~derived
                 A = np.array(_bits(add & ~derived), dtype=np.int64)
                 if len(A):
-                    cases.append((np.array(_bits(pos), dtype=np.int64), _bool(neg, n), _bool(dele, n), A,
-                                  _bool(add, n)))
+                    cases.append(
+                        (np.array(_bits(pos), dtype=np.int64), _bool(neg, n), _bool(dele, n), A, _bool(add, n))
+                    )
         rounds, changed = 0, True
         while changed and (max_rounds is None or rounds < max_rounds):
             changed, rounds = False, rounds + 1
             for P, neg, dele, A, add in cases:
                 if len(P) and (m[np.ix_(P, P)].any() or neg[P].any()):
-                    continue                        # never applicable in a state that respects m
+                    continue  # never applicable in a state that respects m
                 # after the op, an added atom may hold with any q not deleted, not required false and not
                 # mutex with a precondition (then q was false before), or added too
                 apart = dele | neg | (m[P].any(0) if len(P) else np.zeros(n, dtype=bool))
@@ -368,7 +387,7 @@ def _firings(op, max_cases: int) -> list[tuple]:
 
 def _reset_together(model, n: int) -> np.ndarray:
     """(n, n) bool: which pairs of atoms hold together in some world a reset can draw (choices of P > 0)."""
-    owner = np.full(n, -1)                       # the last [[reset]] entry that names each atom
+    owner = np.full(n, -1)  # the last [[reset]] entry that names each atom
     choices = []
     for e, (masks, probs) in enumerate(model.resets):
         every = 0
@@ -381,7 +400,7 @@ def _reset_together(model, n: int) -> np.ndarray:
     for e, C in enumerate(choices):
         can |= C.any(0) & (owner == e)
     together = np.outer(can, can)
-    for e, C in enumerate(choices):             # two atoms of one entry: only in the same choice
+    for e, C in enumerate(choices):  # two atoms of one entry: only in the same choice
         mine = owner == e
         same = (C.T.astype(np.int64) @ C.astype(np.int64)) > 0
         block = np.ix_(mine, mine)
@@ -422,18 +441,25 @@ def check_possible(model, state: int, where, limit: int = 20_000, max_rounds: in
     bad = pairs.violated(state)
     if bad and pairs.complete:
         i, j = bad[0]
-        raise DomainError(where, f"an impossible state: {atom_text(model.atoms[i])} and "
-                                 f"{atom_text(model.atoms[j])} never hold together in any state this layout "
-                                 "reaches (from a world reset, by actions and task consumption)")
+        raise DomainError(
+            where,
+            f"an impossible state: {atom_text(model.atoms[i])} and "
+            f"{atom_text(model.atoms[j])} never hold together in any state this layout "
+            "reaches (from a world reset, by actions and task consumption)",
+        )
     if bad:
         i, j = bad[0]
-        return (f"{where}: not reachable as far as I can tell: {atom_text(model.atoms[i])} and "
-                f"{atom_text(model.atoms[j])} seem never to hold together (the analysis was cut short); "
-                "labelled as given")
+        return (
+            f"{where}: not reachable as far as I can tell: {atom_text(model.atoms[i])} and "
+            f"{atom_text(model.atoms[j])} seem never to hold together (the analysis was cut short); "
+            "labelled as given"
+        )
     states, complete = reachable_states(model, limit, target=state)
     if complete and state not in states:
-        return (f"{where}: not reachable as far as I can tell: none of the {len(states):,} states reachable "
-                "from the world resets by actions and task consumption; labelled as given")
+        return (
+            f"{where}: not reachable as far as I can tell: none of the {len(states):,} states reachable "
+            "from the world resets by actions and task consumption; labelled as given"
+        )
     return None
 
 
@@ -441,8 +467,13 @@ def labels_file(model, state: int, label: Label, heuristic: str) -> dict:
     """What --out writes: the domain's identity, the layout, the state's atoms, C_AP and every task's cost."""
     from planning.domain.identity import identity
 
-    return {**identity(model), "layout": model.layout, "heuristic": heuristic,
-            "state": [atom_text(k) for k in model.true_atoms(state)], **label.as_json(model.tasks)}
+    return {
+        **identity(model),
+        "layout": model.layout,
+        "heuristic": heuristic,
+        "state": [atom_text(k) for k in model.true_atoms(state)],
+        **label.as_json(model.tasks),
+    }
 
 
 def check_replaceable(path, model, state: int) -> None:
@@ -460,18 +491,26 @@ def check_replaceable(path, model, state: int) -> None:
     if not isinstance(saved, dict) or "c_ap" not in saved:
         raise DomainError(path, "exists and is not a labels file; pass --force to replace it, or --out another file")
     atoms = sorted(atom_text(k) for k in model.true_atoms(state))
-    if saved.get("layout") != model.layout or mismatch(saved, model) is not None \
-            or sorted(saved.get("state") or []) != atoms:
-        what = (f"layout {saved.get('layout')}" if saved.get("layout") != model.layout else
-                mismatch(saved, model) or ("a state it does not record" if saved.get("state") is None
-                                           else "another state"))
+    if (
+        saved.get("layout") != model.layout
+        or mismatch(saved, model) is not None
+        or sorted(saved.get("state") or []) != atoms
+    ):
+        what = (
+            f"layout {saved.get('layout')}"
+            if saved.get("layout") != model.layout
+            else mismatch(saved, model)
+            or ("a state it does not record" if saved.get("state") is None else "another state")
+        )
         raise DomainError(path, f"a labels file of {what}; pass --force to replace it, or --out another file")
 
 
 def summary(model, label: Label) -> str:
     """C_AP and every task's cost, one line per task, for the command line."""
-    lines = [f"{model.name} {model.layout}: C_AP = {label.c_ap:.2f} over {len(label.costs)} tasks "
-             f"({label.seconds:.2f}s, {label.closed} states closed)"]
+    lines = [
+        f"{model.name} {model.layout}: C_AP = {label.c_ap:.2f} over {len(label.costs)} tasks "
+        f"({label.seconds:.2f}s, {label.closed} states closed)"
+    ]
     for t, c in sorted(zip(model.tasks, label.costs), key=lambda x: (-x[1], x[0].name)):
         lines.append(f"  {t.name:34s} P={t.probability:.5f}  cost {c if c >= 0 else 'none':>5}")
     return "\n".join(lines)
@@ -481,8 +520,11 @@ def main() -> None:
     from planning.domain.compiler import compile_domain
 
     p = cli.parser(__doc__.splitlines()[0])
-    p.add_argument("--state", default=None, help="a JSON list of true atoms or a PDDL problem file "
-                                                 "(default: the layout's start state)")
+    p.add_argument(
+        "--state",
+        default=None,
+        help="a JSON list of true atoms or a PDDL problem file (default: the layout's start state)",
+    )
     p.add_argument("--heuristic", default="pdb", choices=names("multi-goal"), help="(default: %(default)s)")
     p.add_argument("--time-limit", type=float, default=None, help="seconds for the search (default: none)")
     p.add_argument("--force", action="store_true", help="replace an --out file of another state or domain content")
@@ -505,8 +547,9 @@ def main() -> None:
     unsolvable = [t.name for t, c in zip(model.tasks, label.costs) if c < 0]
     if unsolvable:
         more = f" (and {len(unsolvable) - 1} more of the {len(model.tasks)} tasks)" if len(unsolvable) > 1 else ""
-        raise DomainError(where, f"task {unsolvable[0]} cannot be completed from this state{more}, "
-                                 "so C_AP is undefined")
+        raise DomainError(
+            where, f"task {unsolvable[0]} cannot be completed from this state{more}, so C_AP is undefined"
+        )
     print(summary(model, label))
     if args.out:
         from planning.atomic import OutputLock

@@ -8,6 +8,7 @@ the sequences then drift apart (the closing table reports both).
 
     python -m oracles.myopic --layout two-room [--planner internal] [--sequences 0-9]
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -34,9 +35,15 @@ class MyopicOracle(Planner):
 
     @classmethod
     def options(cls, p) -> None:
-        p.add_argument("--planner", default="fast-downward", choices=PLANNERS,
-                       help="Fast Downward's blind A* (the thesis's) or our exact A* (default: %(default)s)")
-        p.add_argument("--time-limit", type=float, default=600.0, help="planner seconds per task (default: %(default)s)")
+        p.add_argument(
+            "--planner",
+            default="fast-downward",
+            choices=PLANNERS,
+            help="Fast Downward's blind A* (the thesis's) or our exact A* (default: %(default)s)",
+        )
+        p.add_argument(
+            "--time-limit", type=float, default=600.0, help="planner seconds per task (default: %(default)s)"
+        )
 
     @classmethod
     def from_args(cls, args, model=None) -> "MyopicOracle":
@@ -49,8 +56,11 @@ class MyopicOracle(Planner):
             raise DomainError("--time-limit", f"must be positive, not {time_limit}")
         self.planner, self.time_limit = planner, time_limit
         self.run_name = "myopic-oracle" if planner == "fast-downward" else f"myopic-oracle-{planner}"
-        self.config = {"planner": planner, "time_limit": time_limit,
-                       "search": fd.OPTIMAL_CONFIG if planner == "fast-downward" else "astar(pdb) by f-levels"}
+        self.config = {
+            "planner": planner,
+            "time_limit": time_limit,
+            "search": fd.OPTIMAL_CONFIG if planner == "fast-downward" else "astar(pdb) by f-levels",
+        }
         self._model = None
 
     def start(self, model, sequence) -> None:
@@ -62,7 +72,7 @@ class MyopicOracle(Planner):
             r = fd.solve(self._model, state, task, self.time_limit)
             info = {"status": r.status.value, "planner_cost": r.cost, "expansions": r.expansions}
             if r.status != fd.Status.SOLVED and r.message:
-                info["message"] = r.message        # why: Fast Downward's status and the tail of its log
+                info["message"] = r.message  # why: Fast Downward's status and the tail of its log
             return Reply(r.plan if r.status == fd.Status.SOLVED else None, info)
         r = optimal_plan(self._bm, state, task, time_limit=self.time_limit)
         status = "solved" if r.plan is not None else ("unsolvable" if r.complete else "out-of-time")
@@ -75,18 +85,19 @@ class TaskRecord:
 
     index: int
     task: str
-    reset_seed: int | None      # the world was re-sampled with this seed just before the task
-    states: list                # world states: before the first action, then after each action
-    plan: list                  # ground actions executed (empty if already satisfied)
+    reset_seed: int | None  # the world was re-sampled with this seed just before the task
+    states: list  # world states: before the first action, then after each action
+    plan: list  # ground actions executed (empty if already satisfied)
     cost: int
     success: bool
-    auto: bool                  # already satisfied when drawn (zero cost, no action)
-    after: int                  # the world left behind (consumption applied on success)
+    auto: bool  # already satisfied when drawn (zero cost, no action)
+    after: int  # the world left behind (consumption applied on success)
     info: dict = field(default_factory=dict)
 
 
-def rollout(model, planner: Planner, seed: int, n_tasks: int, done: list | None = None,
-            lookahead: int = 0) -> Iterator[TaskRecord]:
+def rollout(
+    model, planner: Planner, seed: int, n_tasks: int, done: list | None = None, lookahead: int = 0
+) -> Iterator[TaskRecord]:
     """A persistent rollout of a planner on a seeded task stream (TaskStream: world reset every 50 tasks).
 
     Yields one TaskRecord per task. `done` (records of an earlier, interrupted run
@@ -101,7 +112,7 @@ def rollout(model, planner: Planner, seed: int, n_tasks: int, done: list | None 
     for i in range(n_tasks):
         task, reset = drawn[i]
         upcoming = []
-        for later, later_reset in drawn[i + 1:i + 1 + lookahead]:
+        for later, later_reset in drawn[i + 1 : i + 1 + lookahead]:
             if later_reset is not None:
                 break
             upcoming.append(later)
@@ -117,8 +128,7 @@ def rollout(model, planner: Planner, seed: int, n_tasks: int, done: list | None 
         for a in plan or []:
             states.append(model.apply(states[-1], a))
         o = world.outcomes[-1]
-        yield TaskRecord(i, task.name, reset, states, list(plan or []), o.cost, o.success, o.auto,
-                         world.state, info)
+        yield TaskRecord(i, task.name, reset, states, list(plan or []), o.cost, o.success, o.auto, world.state, info)
 
 
 def type_table(result: dict) -> str:
@@ -127,13 +137,14 @@ def type_table(result: dict) -> str:
     groups: dict[str, list] = {}
     for r in rows:
         groups.setdefault(r["task"].split("(")[0], []).append(r)
-    lines = [f"{'task type':14s} {'tasks':>6s} {'cost/task':>10s} {'actions/task':>13s} "
-             f"{'success':>8s} {'s/task':>8s}"]
+    lines = [f"{'task type':14s} {'tasks':>6s} {'cost/task':>10s} {'actions/task':>13s} {'success':>8s} {'s/task':>8s}"]
     for name, rs in sorted(groups.items()) + [("all", rows)]:
         n = len(rs)
-        lines.append(f"{name:14s} {n:6d} {sum(r['cost'] for r in rs) / n:10.1f} "
-                     f"{sum(r['actions'] for r in rs) / n:13.2f} {sum(r['success'] for r in rs) / n:8.3f} "
-                     f"{sum(r['seconds'] for r in rs) / n:8.3f}")
+        lines.append(
+            f"{name:14s} {n:6d} {sum(r['cost'] for r in rs) / n:10.1f} "
+            f"{sum(r['actions'] for r in rs) / n:13.2f} {sum(r['success'] for r in rs) / n:8.3f} "
+            f"{sum(r['seconds'] for r in rs) / n:8.3f}"
+        )
     return "\n".join(lines)
 
 
@@ -145,8 +156,10 @@ def main() -> None:
     ids = cli.parse_ids(args.sequences)
     model = compile_domain(args.domain, args.layout)
     r, out = play(model, MyopicOracle.from_args(args, model), ids, RunOptions.from_args(args))
-    print(f"\nmyopic oracle ({args.planner}), {model.name} {model.layout}, sequences {cli.format_ids(ids)}: "
-          f"{r.asked['tasks']} tasks; {figures(r)}")
+    print(
+        f"\nmyopic oracle ({args.planner}), {model.name} {model.layout}, sequences {cli.format_ids(ids)}: "
+        f"{r.asked['tasks']} tasks; {figures(r)}"
+    )
     print(type_table(r.asked))
     print(what_ran(r))
 

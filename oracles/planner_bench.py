@@ -5,6 +5,7 @@ times both planners, checks that every cost is equal, and prints the ratios.
 
     python -m oracles.planner_bench --layout two-room [--calls 20] [--sequence 0] [--out FILE]
 """
+
 from __future__ import annotations
 
 import time
@@ -56,34 +57,54 @@ def benchmark_planner(model, sequence_id: int = 0, n: int = 20, time_limit: floa
         theirs = fd.solve(model, state, task, time_limit)
         if ours.cost != theirs.cost:
             raise AssertionError(f"{task.name}: our cost {ours.cost}, Fast Downward's {theirs.cost}")
-        rows.append({"task": task.name, "cost": ours.cost, "ours_s": round(t_ours, 4),
-                     "fast_downward_s": round(theirs.seconds, 4), "ours_expansions": ours.expansions,
-                     "fast_downward_expansions": theirs.expansions})
+        rows.append(
+            {
+                "task": task.name,
+                "cost": ours.cost,
+                "ours_s": round(t_ours, 4),
+                "fast_downward_s": round(theirs.seconds, 4),
+                "ours_expansions": ours.expansions,
+                "fast_downward_expansions": theirs.expansions,
+            }
+        )
     ours_total = sum(r["ours_s"] for r in rows)
     fd_total = sum(r["fast_downward_s"] for r in rows)
     per_call = sorted(r["fast_downward_s"] / max(r["ours_s"], 1e-6) for r in rows)
-    return {"domain": model.name, "layout": model.layout, "sequence": sequence_id, "calls": len(rows),
-            "ours_seconds": round(ours_total, 3), "fast_downward_seconds": round(fd_total, 3),
-            "ratio_total": round(fd_total / ours_total, 2),
-            "ratio_per_call_median": round(per_call[len(per_call) // 2], 2),
-            "ratio_per_call_min": round(per_call[0], 2), "equal_costs": True, "calls_detail": rows}
+    return {
+        "domain": model.name,
+        "layout": model.layout,
+        "sequence": sequence_id,
+        "calls": len(rows),
+        "ours_seconds": round(ours_total, 3),
+        "fast_downward_seconds": round(fd_total, 3),
+        "ratio_total": round(fd_total / ours_total, 2),
+        "ratio_per_call_median": round(per_call[len(per_call) // 2], 2),
+        "ratio_per_call_min": round(per_call[0], 2),
+        "equal_costs": True,
+        "calls_detail": rows,
+    }
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0], sequence=True,
-                   helps={"sequence": "canonical sequence whose tasks are planned"})
+    p = cli.parser(
+        __doc__.splitlines()[0], sequence=True, helps={"sequence": "canonical sequence whose tasks are planned"}
+    )
     p.add_argument("--calls", type=int, default=20, help="planner calls (default: %(default)s)")
     p.add_argument("--time-limit", type=float, default=600.0, help="Fast Downward seconds per call")
     args = p.parse_args()
     model = compile_domain(args.domain, args.layout)
     r = benchmark_planner(model, args.sequence, args.calls, args.time_limit)
     for c in r["calls_detail"]:
-        print(f"  {c['task']:34s} cost {c['cost']:5d}  ours {c['ours_s']:8.3f}s "
-              f"({c['ours_expansions']} states)  Fast Downward {c['fast_downward_s']:8.3f}s "
-              f"({c['fast_downward_expansions']} expanded)")
-    print(f"{r['calls']} calls, equal costs: ours {r['ours_seconds']}s, Fast Downward "
-          f"{r['fast_downward_seconds']}s; ratio total {r['ratio_total']}, per call median "
-          f"{r['ratio_per_call_median']} (min {r['ratio_per_call_min']})")
+        print(
+            f"  {c['task']:34s} cost {c['cost']:5d}  ours {c['ours_s']:8.3f}s "
+            f"({c['ours_expansions']} states)  Fast Downward {c['fast_downward_s']:8.3f}s "
+            f"({c['fast_downward_expansions']} expanded)"
+        )
+    print(
+        f"{r['calls']} calls, equal costs: ours {r['ours_seconds']}s, Fast Downward "
+        f"{r['fast_downward_seconds']}s; ratio total {r['ratio_total']}, per call median "
+        f"{r['ratio_per_call_median']} (min {r['ratio_per_call_min']})"
+    )
     if args.out:
         write_json(args.out, {**r, "provenance": results_provenance(vars(args))})
 

@@ -21,6 +21,7 @@ but planned again and replaced, as a cache is.
 
     python -m oracles.rollouts --layout two-room --tasks 2000 --seed 0 [--planner internal|clairvoyant-3]
 """
+
 from __future__ import annotations
 
 import json
@@ -38,16 +39,17 @@ from planning.world.agents import Planner, Reply
 
 from .myopic import MyopicOracle, TaskRecord, rollout, type_table
 
-FORMAT = 1                      # bump when the file layout changes
-SAVE_EVERY_SECONDS = 10.0       # a long planner call is never lost for more than this
-SAVE_EVERY_TASKS = 50           # nor a run of quick ones
-CLAIRVOYANT_SECONDS = 60.0      # a clairvoyant window's time limit (the clairvoyant evaluations'), then the myopic chain
+FORMAT = 1  # bump when the file layout changes
+SAVE_EVERY_SECONDS = 10.0  # a long planner call is never lost for more than this
+SAVE_EVERY_TASKS = 50  # nor a run of quick ones
+CLAIRVOYANT_SECONDS = 60.0  # a clairvoyant window's time limit (the clairvoyant evaluations'), then the myopic chain
 
 
 def make_oracle(planner: str, time_limit: float) -> tuple[Planner, int]:
     """(the planner a rollout plays, how many upcoming tasks it is shown) for a planner name."""
     if planner.startswith("clairvoyant-"):
         from .clairvoyant import ClairvoyantOracle
+
         try:
             k = int(planner.removeprefix("clairvoyant-"))
         except ValueError:
@@ -95,8 +97,15 @@ def cache_path(model, seed: int, planner: str = "internal", cache_dir="runs/roll
     return Path(cache_dir) / f"{model.name}-{model.layout}-{planner}-seed{seed}.json"
 
 
-def cached_rollout(model, seed: int, n_tasks: int, planner: str = "internal", time_limit: float = 600.0,
-                   cache_dir="runs/rollouts", progress=True) -> list[TaskRecord]:
+def cached_rollout(
+    model,
+    seed: int,
+    n_tasks: int,
+    planner: str = "internal",
+    time_limit: float = 600.0,
+    cache_dir="runs/rollouts",
+    progress=True,
+) -> list[TaskRecord]:
     """The first n_tasks records of the seeded rollout of a planner, read from the cache and extended there."""
     if n_tasks < 0:
         raise DomainError("--tasks", f"{n_tasks} is not a number of tasks")
@@ -108,8 +117,7 @@ def cached_rollout(model, seed: int, n_tasks: int, planner: str = "internal", ti
     oracle = RememberingOracle(inner)
     oracle.start(model, None)
     records: list[TaskRecord] = []
-    bar = tqdm(total=n_tasks, desc=f"{planner} rollout {model.layout} seed {seed}", unit="task",
-               disable=not progress)
+    bar = tqdm(total=n_tasks, desc=f"{planner} rollout {model.layout} seed {seed}", unit="task", disable=not progress)
     last_save, unsaved = time.monotonic(), 0
     gen = _checked(rollout(model, oracle, seed, n_tasks, done=stored, lookahead=lookahead), path, len(stored))
     start = time.perf_counter()
@@ -148,8 +156,9 @@ def load_records(model, path, seed: int, planner: str, stale: str = "error") -> 
     want = {"format": FORMAT, "domain": model.name, "layout": model.layout, "planner": planner, "seed": seed}
     for key, value in want.items():
         if data.get(key) != value:
-            raise DomainError(path, f"rollout cache has {key} {data.get(key)!r}, expected {value!r}; "
-                                    f"delete it to recompute")
+            raise DomainError(
+                path, f"rollout cache has {key} {data.get(key)!r}, expected {value!r}; delete it to recompute"
+            )
     diff = mismatch(data, model)
     if diff is not None:
         if stale == "rebuild":
@@ -159,8 +168,20 @@ def load_records(model, path, seed: int, planner: str, stale: str = "error") -> 
     for i, r in enumerate(data["records"]):
         try:
             plan = [model.action(name) for name in r["plan"]]
-            out.append(TaskRecord(i, r["task"], r["reset_seed"], [], plan, int(r["cost"]), bool(r["success"]),
-                                  bool(r["auto"]), -1, dict(r.get("info", {}))))
+            out.append(
+                TaskRecord(
+                    i,
+                    r["task"],
+                    r["reset_seed"],
+                    [],
+                    plan,
+                    int(r["cost"]),
+                    bool(r["success"]),
+                    bool(r["auto"]),
+                    -1,
+                    dict(r.get("info", {})),
+                )
+            )
         except DomainError as e:
             raise DomainError(path, f"record {i}: {e}; delete it to recompute") from None
         except (KeyError, TypeError, ValueError, AttributeError) as e:
@@ -198,8 +219,7 @@ def _check_against(rec: TaskRecord, want: TaskRecord, path) -> None:
     if got != exp:
         fields = ("task", "reset_seed", "cost", "success", "auto", "plan")
         bad = next(f"{f} {g!r} on replay, {e!r} stored" for f, g, e in zip(fields, got, exp) if g != e)
-        raise DomainError(path, f"record {rec.index} ({want.task}) does not replay: {bad}; "
-                                f"delete it to recompute")
+        raise DomainError(path, f"record {rec.index} ({want.task}) does not replay: {bad}; delete it to recompute")
     rec.info = dict(want.info)
 
 
@@ -214,17 +234,46 @@ def _save(model, path: Path, seed: int, planner: str, config: dict, records: lis
                 return
         except (OSError, ValueError, AttributeError):
             pass
-    write_json(path, {
-        "format": FORMAT, **mine, "layout": model.layout, "planner": planner, "seed": seed,
-        "config": config, "tasks": len(records),
-        "records": [{"task": r.task, "reset_seed": r.reset_seed, "plan": [model.actions[a] for a in r.plan],
-                     "cost": r.cost, "success": r.success, "auto": r.auto, "info": r.info} for r in records]})
+    write_json(
+        path,
+        {
+            "format": FORMAT,
+            **mine,
+            "layout": model.layout,
+            "planner": planner,
+            "seed": seed,
+            "config": config,
+            "tasks": len(records),
+            "records": [
+                {
+                    "task": r.task,
+                    "reset_seed": r.reset_seed,
+                    "plan": [model.actions[a] for a in r.plan],
+                    "cost": r.cost,
+                    "success": r.success,
+                    "auto": r.auto,
+                    "info": r.info,
+                }
+                for r in records
+            ],
+        },
+    )
 
 
 def rows(model, records: list[TaskRecord]) -> list[dict]:
     """Per-task rows shaped like the evaluation runner's (for type_table)."""
-    return [{"index": r.index, "task": r.task, "cost": r.cost, "actions": len(r.plan), "success": r.success,
-             "auto": r.auto, "seconds": r.info.get("seconds", 0.0)} for r in records]
+    return [
+        {
+            "index": r.index,
+            "task": r.task,
+            "cost": r.cost,
+            "actions": len(r.plan),
+            "success": r.success,
+            "auto": r.auto,
+            "seconds": r.info.get("seconds", 0.0),
+        }
+        for r in records
+    ]
 
 
 def record_states(records) -> list[int]:
@@ -252,7 +301,9 @@ def faithful_states(model, n: int, seed: int = 0, progress: bool = True) -> list
 def main() -> None:
     p = cli.parser(__doc__.splitlines()[0], seed=True)
     p.add_argument("--tasks", type=int, default=2000, help="tasks of the stream (default: %(default)s)")
-    p.add_argument("--planner", default="internal", help="internal, fast-downward or clairvoyant-K (default: %(default)s)")
+    p.add_argument(
+        "--planner", default="internal", help="internal, fast-downward or clairvoyant-K (default: %(default)s)"
+    )
     p.add_argument("--time-limit", type=float, default=600.0, help="planner seconds per task (default 600)")
     p.add_argument("--cache-dir", default="runs/rollouts", help="where caches live (default: %(default)s)")
     args = p.parse_args()
@@ -261,16 +312,27 @@ def main() -> None:
     records = cached_rollout(model, args.seed, args.tasks, args.planner, args.time_limit, args.cache_dir)
     table = rows(model, records)
     n = max(len(table), 1)
-    print(f"\nrollout ({args.planner}), {model.name} {model.layout}, seed {args.seed}: "
-          f"{len(table)} tasks, cost per task {sum(r['cost'] for r in table) / n:.1f}, "
-          f"{time.perf_counter() - start:.1f}s this run")
+    print(
+        f"\nrollout ({args.planner}), {model.name} {model.layout}, seed {args.seed}: "
+        f"{len(table)} tasks, cost per task {sum(r['cost'] for r in table) / n:.1f}, "
+        f"{time.perf_counter() - start:.1f}s this run"
+    )
     if table:
         print(type_table({"per_task": table}))
     print(f"wrote {cache_path(model, args.seed, args.planner, args.cache_dir)}")
     if args.out:
-        write_json(args.out, {**identity(model), "layout": model.layout, "planner": args.planner,
-                              "seed": args.seed, "tasks": len(table),
-                              "cost_per_task": round(sum(r["cost"] for r in table) / n, 2), "per_task": table})
+        write_json(
+            args.out,
+            {
+                **identity(model),
+                "layout": model.layout,
+                "planner": args.planner,
+                "seed": args.seed,
+                "tasks": len(table),
+                "cost_per_task": round(sum(r["cost"] for r in table) / n, 2),
+                "per_task": table,
+            },
+        )
         print(f"wrote {args.out}")
 
 

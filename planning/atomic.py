@@ -1,4 +1,5 @@
 """Atomic file writes: a reader never sees half a result file or checkpoint; and a file's digest."""
+
 from __future__ import annotations
 
 import hashlib
@@ -19,7 +20,7 @@ def write_bytes(path, data: bytes) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
-        os.fchmod(fd, 0o666 & ~current_umask())     # mkstemp makes 0600; a file gets the usual mode
+        os.fchmod(fd, 0o666 & ~current_umask())  # mkstemp makes 0600; a file gets the usual mode
         with os.fdopen(fd, "wb") as f:
             f.write(data)
             f.flush()
@@ -52,11 +53,15 @@ def read_json(path, what: str = "results file"):
     try:
         return json.loads(path.read_text())
     except json.JSONDecodeError as e:
-        raise DomainError(path, f"corrupt {what} ({e.msg} at line {e.lineno}: cut short or edited by hand); "
-                                "restore it from git, or delete it and rerun the command that writes it") from None
+        raise DomainError(
+            path,
+            f"corrupt {what} ({e.msg} at line {e.lineno}: cut short or edited by hand); "
+            "restore it from git, or delete it and rerun the command that writes it",
+        ) from None
     except UnicodeDecodeError:
-        raise DomainError(path, f"corrupt {what} (not text); restore it from git, or delete it and rerun the "
-                                "command that writes it") from None
+        raise DomainError(
+            path, f"corrupt {what} (not text); restore it from git, or delete it and rerun the command that writes it"
+        ) from None
     except OSError as e:
         raise DomainError(path, f"cannot read: {e.strerror}") from None
 
@@ -109,10 +114,13 @@ class OutputLock:
         except OSError as e:
             os.close(fd)
             if e.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
-                raise DomainError(self.path, f"another process is writing this {self.what}; wait for it to "
-                                             "finish, or write to another --out") from None
-            raise DomainError(self.path, f"cannot lock this {self.what} for writing ({e.strerror}; a file "
-                                         "system without locks?)") from None
+                raise DomainError(
+                    self.path,
+                    f"another process is writing this {self.what}; wait for it to finish, or write to another --out",
+                ) from None
+            raise DomainError(
+                self.path, f"cannot lock this {self.what} for writing ({e.strerror}; a file system without locks?)"
+            ) from None
         os.ftruncate(fd, 0)
         os.write(fd, f"{os.getpid()}\n".encode())
         OutputLock._held[key] = [fd, 1]

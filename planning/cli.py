@@ -3,6 +3,7 @@
 Every command builds its parser with `parser`, which declares the options several commands share
 (each once, here); a command adds only its own.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -35,9 +36,19 @@ OUT_HELP = {"file": "results JSON to write", "folder": "results folder to write"
 """The help of --out, by what it names."""
 
 
-def parser(description: str, *, domain: bool = True, layout: bool = True, sequences: bool = False,
-           sequence: bool = False, seed: bool = False, out: str | None = "file", progress: bool = False,
-           workers: bool = False, helps: dict[str, str] | None = None) -> argparse.ArgumentParser:
+def parser(
+    description: str,
+    *,
+    domain: bool = True,
+    layout: bool = True,
+    sequences: bool = False,
+    sequence: bool = False,
+    seed: bool = False,
+    out: str | None = "file",
+    progress: bool = False,
+    workers: bool = False,
+    helps: dict[str, str] | None = None,
+) -> argparse.ArgumentParser:
     """The argument parser of a command, with the shared options it asks for.
 
     --domain and --layout unless `domain` or `layout` is False (a tool that reads
@@ -62,8 +73,9 @@ def parser(description: str, *, domain: bool = True, layout: bool = True, sequen
     if seed:
         p.add_argument("--seed", type=int, default=0, help=words["seed"])
     if out:
-        p.add_argument("--out", default=None, type=writable_folder if out == "folder" else writable_file,
-                       help=words["out"])
+        p.add_argument(
+            "--out", default=None, type=writable_folder if out == "folder" else writable_file, help=words["out"]
+        )
     if progress:
         p.add_argument("--no-progress", action="store_true", help=words["no_progress"])
     if workers:
@@ -136,7 +148,7 @@ def check_writable(path, folder: bool = False) -> Path:
         raise DomainError(path, f"cannot be written: {probe} is not a directory")
     if not os.access(probe, os.W_OK | os.X_OK):
         raise DomainError(path, f"cannot be written: no permission to write in {probe}")
-    try:                      # what os.access misses: a read-only file system, root's squashed mounts
+    try:  # what os.access misses: a read-only file system, root's squashed mounts
         fd, tmp = tempfile.mkstemp(dir=probe, prefix=".write-check.", suffix=".tmp")
         os.close(fd)
         os.unlink(tmp)
@@ -166,7 +178,7 @@ def end_progress_lines() -> None:
     for bar in list(getattr(tqdm, "_instances", [])):
         try:
             bar.close()
-        except Exception:     # a bar half torn down by the error itself
+        except Exception:  # a bar half torn down by the error itself
             pass
 
 
@@ -209,5 +221,10 @@ def add_dataclass_options(p: argparse.ArgumentParser, cls, skip=()) -> None:
             kind = float
         elif f.type in ("int | None", "int"):
             kind = int
-        p.add_argument(f"--{f.name.replace('_', '-')}", dest=f.name, type=kind, default=None,
-                       help=f"{docs.get(f.name, '')} (default: {f.default})".replace("%", "%%"))
+        p.add_argument(
+            f"--{f.name.replace('_', '-')}",
+            dest=f.name,
+            type=kind,
+            default=None,
+            help=f"{docs.get(f.name, '')} (default: {f.default})".replace("%", "%%"),
+        )

@@ -28,6 +28,7 @@ here (a DomainError stays one line). A worker that dies (killed, out of memory: 
 BrokenProcessPool, Ray's WorkerCrashedError) is one DomainError line too, saying how many
 items finished; their on_result has run, so a rerun of the command plays only the rest.
 """
+
 from __future__ import annotations
 
 import os
@@ -84,12 +85,17 @@ def describe(workers: int, use_ray: bool) -> str:
     """How items will run, in words (for a log line)."""
     if use_ray:
         where = os.environ.get("RAY_ADDRESS")
-        return f"Ray tasks on {where}" if where else f"Ray tasks on a local instance ({workers if workers > 1 else 'all'} CPUs)"
+        return (
+            f"Ray tasks on {where}"
+            if where
+            else f"Ray tasks on a local instance ({workers if workers > 1 else 'all'} CPUs)"
+        )
     return "serially in this process" if workers <= 1 else f"{workers} local processes"
 
 
-def run_items(fn, items: list, workers: int = 1, use_ray: bool = False, on_result=None, progress: bool = True,
-              desc: str = "items") -> list:
+def run_items(
+    fn, items: list, workers: int = 1, use_ray: bool = False, on_result=None, progress: bool = True, desc: str = "items"
+) -> list:
     """fn(item) for every item, serially, on `workers` local processes or as Ray tasks; results in order."""
     items = list(items)
     if workers < 1:
@@ -113,8 +119,11 @@ def run_items(fn, items: list, workers: int = 1, use_ray: bool = False, on_resul
             for i, item in enumerate(items):
                 t0 = time.perf_counter()
                 r = fn(item)
-                done(i, r, {"host": socket.gethostname(), "pid": os.getpid(),
-                            "seconds": round(time.perf_counter() - t0, 3)})
+                done(
+                    i,
+                    r,
+                    {"host": socket.gethostname(), "pid": os.getpid(), "seconds": round(time.perf_counter() - t0, 3)},
+                )
         else:
             _run_pool(fn, items, workers, done, desc)
     finally:
@@ -125,8 +134,11 @@ def run_items(fn, items: list, workers: int = 1, use_ray: bool = False, on_resul
 def worker_died(where: str, desc: str, finished: int, total: int, cause: str) -> DomainError:
     """The one-line error of a worker that died mid-run: how many items finished (and were kept by
     on_result) and that a rerun plays the rest."""
-    return DomainError(where, f"a worker process died ({cause}); {finished} of the {total} {desc} finished and "
-                              "were kept: rerun the command to play the rest")
+    return DomainError(
+        where,
+        f"a worker process died ({cause}); {finished} of the {total} {desc} finished and "
+        "were kept: rerun the command to play the rest",
+    )
 
 
 def _run_pool(fn, items, workers, done, desc: str = "items") -> None:
@@ -134,9 +146,10 @@ def _run_pool(fn, items, workers, done, desc: str = "items") -> None:
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
-    ctx = mp.get_context("spawn")          # no fork of a parent holding torch or a thread pool
-    with ProcessPoolExecutor(max_workers=min(workers, len(items)), mp_context=ctx, initializer=_worker_init,
-                             initargs=(os.getcwd(),)) as pool:
+    ctx = mp.get_context("spawn")  # no fork of a parent holding torch or a thread pool
+    with ProcessPoolExecutor(
+        max_workers=min(workers, len(items)), mp_context=ctx, initializer=_worker_init, initargs=(os.getcwd(),)
+    ) as pool:
         futures: dict = {}
         taken: set = set()
         try:
@@ -155,8 +168,9 @@ def _run_pool(fn, items, workers, done, desc: str = "items") -> None:
                 if f not in taken and f.done() and not f.cancelled() and f.exception() is None:
                     taken.add(f)
                     done(futures[f], *f.result())
-            raise worker_died(f"--workers {workers}", desc, len(taken), len(items),
-                              "killed, or out of memory") from None
+            raise worker_died(
+                f"--workers {workers}", desc, len(taken), len(items), "killed, or out of memory"
+            ) from None
         except BaseException:
             for f in futures:
                 f.cancel()
@@ -182,8 +196,7 @@ def ray_init(workers: int = 1) -> bool:
     if address:
         ray.init(address=address, runtime_env={"working_dir": os.getcwd(), "excludes": RAY_EXCLUDES}, **common)
     else:
-        ray.init(address="local", num_cpus=workers if workers > 1 else None, object_store_memory=256 * 2**20,
-                 **common)
+        ray.init(address="local", num_cpus=workers if workers > 1 else None, object_store_memory=256 * 2**20, **common)
     return True
 
 
@@ -191,9 +204,11 @@ def _run_ray(fn, items, workers, done, desc: str = "items") -> None:
     import ray
 
     started = ray_init(workers)
-    died = tuple(getattr(ray.exceptions, name) for name in ("WorkerCrashedError", "NodeDiedError",
-                                                            "OutOfMemoryError", "LocalRayletDiedError")
-                 if hasattr(ray.exceptions, name))
+    died = tuple(
+        getattr(ray.exceptions, name)
+        for name in ("WorkerCrashedError", "NodeDiedError", "OutOfMemoryError", "LocalRayletDiedError")
+        if hasattr(ray.exceptions, name)
+    )
     try:
         task = ray.remote(num_cpus=1, max_retries=0)(_call)
         cwd = os.getcwd()
@@ -207,7 +222,7 @@ def _run_ray(fn, items, workers, done, desc: str = "items") -> None:
                     result, meta = ray.get(ready[0])
                 except died as e:
                     ready, pending = ray.wait(pending, num_returns=len(pending), timeout=0) if pending else ([], [])
-                    for ref in ready:                  # those done meanwhile are kept too
+                    for ref in ready:  # those done meanwhile are kept too
                         try:
                             done(refs[ref], *ray.get(ref))
                             finished += 1
@@ -234,12 +249,19 @@ def provenance() -> dict:
 
     root = Path(__file__).resolve().parents[1]
     try:
-        commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True,
-                                timeout=10).stdout.strip() or None
+        commit = (
+            subprocess.run(
+                ["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, timeout=10
+            ).stdout.strip()
+            or None
+        )
     except (OSError, subprocess.SubprocessError):
         commit = None
-    return {"commit": commit, "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]),
-            "written": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+    return {
+        "commit": commit,
+        "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]),
+        "written": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+    }
 
 
 def results_provenance(config: dict, played=(), kept: dict | None = None) -> dict:
@@ -257,17 +279,35 @@ def results_provenance(config: dict, played=(), kept: dict | None = None) -> dic
 
     out = provenance()
     if getattr(sys, "orig_argv", None) and "-m" in sys.orig_argv:
-        out["command"] = " ".join(["python", *sys.orig_argv[sys.orig_argv.index("-m"):]])
+        out["command"] = " ".join(["python", *sys.orig_argv[sys.orig_argv.index("-m") :]])
     try:
-        changed = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", "*.py", "*.pddl",
-                                  "*.toml", ":(exclude)tests"], cwd=Path(__file__).resolve().parents[1], capture_output=True,
-                                 text=True, timeout=10).stdout.split("\n")
+        changed = subprocess.run(
+            [
+                "git",
+                "status",
+                "--porcelain",
+                "--untracked-files=no",
+                "--",
+                "*.py",
+                "*.pddl",
+                "*.toml",
+                ":(exclude)tests",
+            ],
+            cwd=Path(__file__).resolve().parents[1],
+            capture_output=True,
+            text=True,
+            timeout=10,
+        ).stdout.split("\n")
         out["uncommitted_code"] = sorted(line[3:] for line in changed if line.strip())
     except (OSError, subprocess.SubprocessError):
         out["uncommitted_code"] = None
     out["date_utc"] = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
-    out["machine"] = {"host": platform.node(), "platform": platform.platform(), "cpus": os.cpu_count(),
-                      "python": platform.python_version()}
+    out["machine"] = {
+        "host": platform.node(),
+        "platform": platform.platform(),
+        "cpus": os.cpu_count(),
+        "python": platform.python_version(),
+    }
     checkpoint = next((v for k in ("checkpoint", "model") if isinstance(v := (config or {}).get(k), str)), None)
     if checkpoint and Path(checkpoint).is_file():
         out["checkpoint"] = checkpoint

@@ -7,11 +7,12 @@ pattern-database projections (`planning.heuristics.pdb`). INF_64 is the int64
 cost of an unreachable state: a g, f or heuristic value no plan attains, with
 room to add costs to it without overflow.
 """
+
 from __future__ import annotations
 
 import numpy as np
 
-INF_64 = np.iinfo(np.int64).max // 4     # "unreachable" for g, f and h values
+INF_64 = np.iinfo(np.int64).max // 4  # "unreachable" for g, f and h values
 
 _MIX = np.uint64(0x9E3779B97F4A7C15)
 
@@ -41,7 +42,7 @@ def cheapest_unique(rows: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.nda
     first[1:] = keys[1:] != keys[:-1]
     pick = order[first]
     if len(pick) < len(rows):
-        back = np.cumsum(first) - 1              # each sorted row's kept representative
+        back = np.cumsum(first) - 1  # each sorted row's kept representative
         if (rows[pick][back] != rows[order]).any():
             raise StateKeyCollision("two states of one batch share a key")
     return pick, keys[first]
@@ -58,7 +59,7 @@ class StateTable:
 
     def __init__(self, n_words: int):
         self.n_words = n_words
-        self.runs: list[list[np.ndarray]] = []      # [keys (sorted), rows, values]
+        self.runs: list[list[np.ndarray]] = []  # [keys (sorted), rows, values]
 
     def __len__(self) -> int:
         return sum(len(r[0]) for r in self.runs)
@@ -105,8 +106,11 @@ class StateTable:
     def merged(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(keys, rows, values) of every state, in key order."""
         if not self.runs:
-            return (np.zeros(0, dtype=np.uint64), np.zeros((0, self.n_words), dtype=np.uint64),
-                    np.zeros(0, dtype=np.int64))
+            return (
+                np.zeros(0, dtype=np.uint64),
+                np.zeros((0, self.n_words), dtype=np.uint64),
+                np.zeros(0, dtype=np.int64),
+            )
         keys, rows, values = (np.concatenate(x) for x in zip(*self.runs))
         order = np.argsort(keys, kind="stable")
         return keys[order], rows[order], values[order]
@@ -130,7 +134,7 @@ class ClosedStates:
         """Close distinct states (none closed at a g as small); how many were reopened."""
         run, pos = self.table.find(keys, rows)
         known = run >= 0
-        self.table.set(run[known], pos[known], g[known])        # reopened: a smaller g than before
+        self.table.set(run[known], pos[known], g[known])  # reopened: a smaller g than before
         new = ~known
         self.table.add(keys[new], rows[new], g[new])
         return int(known.sum())

@@ -17,6 +17,7 @@ the Q-network's value (`learning.q.value.ValueFunction`), the GNN estimate as
 below, which makes the Bellman–Novelty search myopic: every terminal ties on
 V_AP, so the cheapest wins.
 """
+
 from __future__ import annotations
 
 from typing import Protocol, runtime_checkable

@@ -7,6 +7,10 @@ clear: move 200, pick the plate 100. fruit-bowl: pick knife 100, cut 100, place
 knife 100, pick bowl 100, move 200, place 100.
 """
 
-START_COSTS = {"serve-water(servingtable)": 1475, "make-coffee(servingtable)": 650,
-               "clear(servingtable)": 300, "fruit-bowl(servingtable)": 700}
+START_COSTS = {
+    "serve-water(servingtable)": 1475,
+    "make-coffee(servingtable)": 650,
+    "clear(servingtable)": 300,
+    "fruit-bowl(servingtable)": 700,
+}
 SERVE_WATER_ACTIONS = 5

@@ -1,6 +1,7 @@
 """More bad input: files made for another layout or other domain content, outputs that would be
 replaced silently, and the tracebacks that are one-line errors now. Tiny data only: crafted files and the
 committed checkpoints, nothing trained."""
+
 import fcntl
 import json
 import os
@@ -54,9 +55,15 @@ def dataset_meta(model, states, **extra) -> dict:
     """The meta.json a gnn_dataset folder of these states would have (labels made up)."""
     from planning.domain.grounding import atom_text
 
-    return {"domain": model.name, "layout": model.layout, "n": len(states), "kinds": ["faithful"] * len(states),
-            "c_ap": [100.0 + i for i in range(len(states))],
-            "atoms": [[atom_text(k) for k in model.true_atoms(s)] for s in states], **extra}
+    return {
+        "domain": model.name,
+        "layout": model.layout,
+        "n": len(states),
+        "kinds": ["faithful"] * len(states),
+        "c_ap": [100.0 + i for i in range(len(states))],
+        "atoms": [[atom_text(k) for k in model.true_atoms(s)] for s in states],
+        **extra,
+    }
 
 
 def three_room_data(tmp_path, three_room) -> Path:
@@ -80,8 +87,22 @@ def test_a_gnn_model_of_another_layout_is_refused_by_its_value(three_room):
 def test_gnn_agents_refuse_a_model_of_another_layout(three_room, tmp_path, capsys, agent):
     from experiments.evaluate import main
 
-    line = exits(main, ["--agent", *agent, "--model", TWO_ROOM_GNN, "--layout", "three-room", "--sequences", "0",
-                        "--out", tmp_path / "r.json"], capsys)
+    line = exits(
+        main,
+        [
+            "--agent",
+            *agent,
+            "--model",
+            TWO_ROOM_GNN,
+            "--layout",
+            "three-room",
+            "--sequences",
+            "0",
+            "--out",
+            tmp_path / "r.json",
+        ],
+        capsys,
+    )
     assert f"{TWO_ROOM_GNN}: a GNN model of restaurant two-room, not of restaurant three-room" in line
     assert not list(tmp_path.iterdir())
 
@@ -132,8 +153,14 @@ def test_new_datasets_and_models_record_the_domain_identity(minimal, tmp_path):
 
     states = list(dict.fromkeys(minimal.random_walk_states(4, seed=0)))
     labels = {s: (10.0, [10] * len(minimal.tasks), 0.0) for s in states}
-    save_dataset(tmp_path, minimal, states, labels, {"kinds": ["faithful"] * len(states)},
-                 GraphEncoder(minimal, embed=zero_embed))
+    save_dataset(
+        tmp_path,
+        minimal,
+        states,
+        labels,
+        {"kinds": ["faithful"] * len(states)},
+        GraphEncoder(minimal, embed=zero_embed),
+    )
     meta = json.loads((tmp_path / "meta.json").read_text())
     assert {k: meta[k] for k in ("domain", "domain_sha256", "domain_files")} == identity(minimal)
     assert meta["layout"] == "grid"
@@ -149,14 +176,21 @@ def test_a_model_of_other_domain_content_loads_with_a_one_line_warning(minimal, 
 
     enc = GraphEncoder(minimal, embed=zero_embed)
     net = GNNCostModel(enc.num_features, width=4, layers=1).eval()
-    payload = {"feature_names": enc.feature_names, **identity(minimal), "layout": "grid",
-               "domain_sha256": OTHER_DIGEST, "domain_files": {**identity(minimal)["domain_files"], "grid.pddl": "x"}}
+    payload = {
+        "feature_names": enc.feature_names,
+        **identity(minimal),
+        "layout": "grid",
+        "domain_sha256": OTHER_DIGEST,
+        "domain_files": {**identity(minimal)["domain_files"], "grid.pddl": "x"},
+    }
     value = GNNValue((net, payload), minimal, encoder=enc)
     assert value.c_ap([minimal.init]).shape == (1,)
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == ["warning: GNN model: a GNN model made from other content of domain 'minimal' (changed: "
-                   "grid.pddl); its C_AP figures may not hold for this content"]
-    GNNValue((net, {**payload, **identity(minimal)}), minimal, encoder=enc)      # the same content: no warning
+    assert err == [
+        "warning: GNN model: a GNN model made from other content of domain 'minimal' (changed: "
+        "grid.pddl); its C_AP figures may not hold for this content"
+    ]
+    GNNValue((net, {**payload, **identity(minimal)}), minimal, encoder=enc)  # the same content: no warning
     assert capsys.readouterr().err == ""
 
 
@@ -164,7 +198,7 @@ def test_the_committed_gnn_models_load_on_their_own_layout(two_room):
     from learning.gnn.model import check_made_for, read_gnn_checkpoint
 
     payload = read_gnn_checkpoint(TWO_ROOM_GNN)
-    assert "domain_sha256" not in payload            # made before models recorded it: taken as it is
+    assert "domain_sha256" not in payload  # made before models recorded it: taken as it is
     check_made_for(TWO_ROOM_GNN, payload, two_room)
 
 
@@ -172,23 +206,26 @@ def test_the_committed_gnn_models_load_on_their_own_layout(two_room):
 def tiny_cfg(**kw):
     from learning.gnn.dataset import DatasetConfig
 
-    return DatasetConfig(**{"layout": "grid", "domain": MINIMAL, "n_states": 4, "workers": 1, "heuristic": "hmax",
-                            **kw})
+    return DatasetConfig(
+        **{"layout": "grid", "domain": MINIMAL, "n_states": 4, "workers": 1, "heuristic": "hmax", **kw}
+    )
 
 
 def test_a_finished_dataset_is_not_replaced_by_another_unless_forced(tmp_path, monkeypatch):
     from learning.gnn.dataset import build
 
-    monkeypatch.chdir(tmp_path)                       # the rollout cache goes to runs/ here
+    monkeypatch.chdir(tmp_path)  # the rollout cache goes to runs/ here
     out = tmp_path / "data"
     build(tiny_cfg(), out, progress=False)
     finished = (out / "meta.json").read_bytes()
-    build(tiny_cfg(workers=2, heuristic="blind"), out, progress=False)   # the same dataset: rebuilt as it was
+    build(tiny_cfg(workers=2, heuristic="blind"), out, progress=False)  # the same dataset: rebuilt as it was
     assert json.loads((out / "meta.json").read_text())["atoms"] == json.loads(finished)["atoms"]
     with pytest.raises(DomainError) as e:
         build(tiny_cfg(n_states=5), out, progress=False)
-    assert one_line(e) == (f"{out}/meta.json: a finished dataset of other settings (n_states 4 there, 5 here); "
-                           "pass --force to replace it, or --out another folder")
+    assert one_line(e) == (
+        f"{out}/meta.json: a finished dataset of other settings (n_states 4 there, 5 here); "
+        "pass --force to replace it, or --out another folder"
+    )
     assert json.loads((out / "meta.json").read_text())["n"] == 4
     build(tiny_cfg(n_states=5), out, progress=False, force=True)
     assert json.loads((out / "meta.json").read_text())["n"] == 5
@@ -200,9 +237,10 @@ def test_a_finished_dataset_of_another_layout_or_content_is_refused(minimal, tmp
 
     out = tmp_path / "data"
     out.mkdir()
-    for meta, what in [({"domain": "restaurant", "layout": "two-room"}, "restaurant two-room, not minimal grid"),
-                       ({**identity(minimal), "layout": "grid", "domain_sha256": OTHER_DIGEST},
-                        "other content of domain 'minimal'")]:
+    for meta, what in [
+        ({"domain": "restaurant", "layout": "two-room"}, "restaurant two-room, not minimal grid"),
+        ({**identity(minimal), "layout": "grid", "domain_sha256": OTHER_DIGEST}, "other content of domain 'minimal'"),
+    ]:
         (out / "meta.json").write_text(json.dumps(meta))
         with pytest.raises(DomainError) as e:
             build(tiny_cfg(), out, progress=False)
@@ -231,7 +269,7 @@ def test_a_dataset_folder_has_one_writer(tmp_path):
 
     out = tmp_path / "data"
     out.mkdir()
-    fd = os.open(out / ".lock", os.O_RDWR | os.O_CREAT)           # another writer holds the folder
+    fd = os.open(out / ".lock", os.O_RDWR | os.O_CREAT)  # another writer holds the folder
     try:
         fcntl.flock(fd, fcntl.LOCK_EX)
         with pytest.raises(DomainError) as e:
@@ -243,12 +281,15 @@ def test_a_dataset_folder_has_one_writer(tmp_path):
 
 
 # ---- 3. tracebacks that are one-line errors ------------------------------------------------------------
-@pytest.mark.parametrize("value, expect", [
-    ("7", "task wash: arguments is 7, not a table like"),
-    ('"bowls"', "task wash: arguments is 'bowls', not a table like"),
-    ('{ "?k" = [3] }', "task wash: ?k lists 3, not an object name"),
-    ('{ "?k" = [] }', "task wash: ?k names no object"),
-])
+@pytest.mark.parametrize(
+    "value, expect",
+    [
+        ("7", "task wash: arguments is 7, not a table like"),
+        ('"bowls"', "task wash: arguments is 'bowls', not a table like"),
+        ('{ "?k" = [3] }', "task wash: ?k lists 3, not an object name"),
+        ('{ "?k" = [] }', "task wash: ?k names no object"),
+    ],
+)
 def test_a_tasks_table_of_the_wrong_types(tmp_path, value, expect):
     from planning.domain.compiler import compile_source
     from planning.domain.folder import read_domain
@@ -256,8 +297,9 @@ def test_a_tasks_table_of_the_wrong_types(tmp_path, value, expect):
     folder = tmp_path / "restaurant"
     shutil.copytree(RESTAURANT, folder)
     path = folder / "domain.toml"
-    path.write_text(path.read_text().replace('arguments = { "?k" = { bowls = 0.5, knives = 0.5 } }',
-                                             f"arguments = {value}"))
+    path.write_text(
+        path.read_text().replace('arguments = { "?k" = { bowls = 0.5, knives = 0.5 } }', f"arguments = {value}")
+    )
     with pytest.raises(DomainError) as e:
         compile_source(read_domain(folder, "two-room"))
     assert one_line(e).startswith(f"{path}: {expect}")
@@ -273,8 +315,9 @@ def test_an_unknown_key_of_a_tasks_table(tmp_path):
     path.write_text(path.read_text().replace("[tasks.wash]\n", "[tasks.wash]\nargument = 3\n"))
     with pytest.raises(DomainError) as e:
         compile_source(read_domain(folder, "two-room"))
-    assert one_line(e) == (f"{path}: task wash: unknown key 'argument' (a [tasks.<type>] table has probability "
-                           "and arguments)")
+    assert one_line(e) == (
+        f"{path}: task wash: unknown key 'argument' (a [tasks.<type>] table has probability and arguments)"
+    )
 
 
 def test_a_cut_short_dataset_meta_is_one_line(minimal, tmp_path, capsys):
@@ -285,16 +328,24 @@ def test_a_cut_short_dataset_meta_is_one_line(minimal, tmp_path, capsys):
     from learning.values import rank as value_rank
 
     states = list(dict.fromkeys(minimal.random_walk_states(4, seed=0)))
-    save_dataset(tmp_path, minimal, states, {s: (1.0, [1] * len(minimal.tasks), 0.0) for s in states},
-                 {"kinds": ["faithful"] * len(states)}, GraphEncoder(minimal, embed=zero_embed))
+    save_dataset(
+        tmp_path,
+        minimal,
+        states,
+        {s: (1.0, [1] * len(minimal.tasks), 0.0) for s in states},
+        {"kinds": ["faithful"] * len(states)},
+        GraphEncoder(minimal, embed=zero_embed),
+    )
     meta = tmp_path / "meta.json"
     meta.write_text(meta.read_text()[:100])
     expect = f"{meta}: corrupt dataset metadata ("
     with pytest.raises(DomainError) as e:
         load_dataset(tmp_path)
     assert one_line(e).startswith(expect)
-    for call in (lambda: value_rank.rank([], str(tmp_path), MINIMAL),
-                 lambda: gnn_bench.bench(TWO_ROOM_GNN, str(tmp_path), MINIMAL, 2, 1, 1)):
+    for call in (
+        lambda: value_rank.rank([], str(tmp_path), MINIMAL),
+        lambda: gnn_bench.bench(TWO_ROOM_GNN, str(tmp_path), MINIMAL, 2, 1, 1),
+    ):
         with pytest.raises(DomainError) as e:
             call()
         assert one_line(e).startswith(expect)
@@ -304,23 +355,28 @@ def test_a_cut_short_dataset_meta_is_one_line(minimal, tmp_path, capsys):
     assert line.startswith(f"error: {expect}")
 
 
-@pytest.mark.parametrize("text, expect", [
-    ("[]", "corrupt checkpoint: list [], not a JSON object with a labels table"),
-    ('{"labels": [1]}', "corrupt checkpoint: dict"),
-    ('{"labels": {"5": 3}}', "corrupt checkpoint: the label of state 5 is 3, not [C_AP, costs, seconds]"),
-    ('{"labels": {"x": [1, [1], 0]}}', "corrupt checkpoint: the label of state x is"),
-])
+@pytest.mark.parametrize(
+    "text, expect",
+    [
+        ("[]", "corrupt checkpoint: list [], not a JSON object with a labels table"),
+        ('{"labels": [1]}', "corrupt checkpoint: dict"),
+        ('{"labels": {"5": 3}}', "corrupt checkpoint: the label of state 5 is 3, not [C_AP, costs, seconds]"),
+        ('{"labels": {"x": [1, [1], 0]}}', "corrupt checkpoint: the label of state x is"),
+    ],
+)
 def test_a_malformed_label_checkpoint_is_one_line(minimal, tmp_path, text, expect):
     from learning.gnn.dataset import known_labels, label_states
 
     ck = tmp_path / "labels.partial.json"
     ck.write_text(text)
-    for call in (lambda: label_states([minimal.init], tiny_cfg(), ck, progress=False),
-                 lambda: known_labels([tmp_path], minimal)):
+    for call in (
+        lambda: label_states([minimal.init], tiny_cfg(), ck, progress=False),
+        lambda: known_labels([tmp_path], minimal),
+    ):
         with pytest.raises(DomainError) as e:
             call()
         assert one_line(e).startswith(f"{ck}: {expect}")
-    assert ck.read_text() == text                       # not overwritten
+    assert ck.read_text() == text  # not overwritten
 
 
 # ---- 4. the Gymnasium environment's actions ------------------------------------------------------------
@@ -331,21 +387,24 @@ def env():
     return AnticipatoryEnv(MINIMAL)
 
 
-@pytest.mark.parametrize("action, expect", [
-    (1.7, "action 1.7 is not an integer of Discrete("),
-    (np.float32(0.5), "action np.float32(0.5) is not an integer of Discrete("),
-    (True, "action True is not an integer of Discrete("),
-    (np.array([1]), "action array([1]) has shape (1,), not () of Discrete("),
-    ("1", "action '1' is not an integer of Discrete("),
-    (-1, "action -1 is not in Discrete("),
-])
+@pytest.mark.parametrize(
+    "action, expect",
+    [
+        (1.7, "action 1.7 is not an integer of Discrete("),
+        (np.float32(0.5), "action np.float32(0.5) is not an integer of Discrete("),
+        (True, "action True is not an integer of Discrete("),
+        (np.array([1]), "action array([1]) has shape (1,), not () of Discrete("),
+        ("1", "action '1' is not an integer of Discrete("),
+        (-1, "action -1 is not in Discrete("),
+    ],
+)
 def test_a_non_integer_action_is_refused_naming_it(env, action, expect):
     env.reset(seed=0)
     state = env.state
     with pytest.raises(ValueError) as e:
         env.step(action)
     assert str(e.value).startswith(expect)
-    assert env.state == state and env._task_actions == 0                  # nothing happened
+    assert env.state == state and env._task_actions == 0  # nothing happened
 
 
 def test_integer_actions_of_any_kind_are_taken(env):
@@ -378,8 +437,20 @@ def test_reproduce_stops_at_a_cut_short_reference(tmp_path, monkeypatch, capsys)
     (tmp_path / "results").mkdir()
     reference = Path("results/myopic-oracle-two-room.json")
     reference.write_text((ROOT / reference).read_text()[:300])
-    line = exits(main, ["--report-only", "--layouts", "two-room", "--domain", RESTAURANT, "--no-progress",
-                        "--out", tmp_path / "report.md"], capsys)
+    line = exits(
+        main,
+        [
+            "--report-only",
+            "--layouts",
+            "two-room",
+            "--domain",
+            RESTAURANT,
+            "--no-progress",
+            "--out",
+            tmp_path / "report.md",
+        ],
+        capsys,
+    )
     assert line.startswith(f"error: {reference}: corrupt results file (")
     assert "cut short or edited by hand" in line and not (tmp_path / "report.md").exists()
 
@@ -390,7 +461,7 @@ def test_the_report_reads_no_cut_short_file_as_missing(tmp_path, monkeypatch):
 
     monkeypatch.chdir(tmp_path)
     (tmp_path / "results").mkdir()
-    assert reference.read("results/bench-three-room.json") is None          # missing: not run
+    assert reference.read("results/bench-three-room.json") is None  # missing: not run
     Path("results/bench-three-room.json").write_text('{"layout": "three')
     with pytest.raises(DomainError, match=r"^results/bench-three-room.json: corrupt results file"):
         reference.read("results/bench-three-room.json")
@@ -412,8 +483,9 @@ def test_a_dead_worker_is_one_line_and_the_finished_items_are_kept():
 
     kept = {}
     with pytest.raises(DomainError) as e:
-        run_items(die_on_two, [0, 1, 2, 3, 4], workers=2, progress=False,
-                  on_result=lambda i, r, meta: kept.update({i: r}))
+        run_items(
+            die_on_two, [0, 1, 2, 3, 4], workers=2, progress=False, on_result=lambda i, r, meta: kept.update({i: r})
+        )
     line = one_line(e)
     assert line.startswith("--workers 2: a worker process died (killed, or out of memory); ")
     assert line.endswith(f"{len(kept)} of the 5 items finished and were kept: rerun the command to play the rest")
@@ -425,7 +497,7 @@ def test_a_dead_ray_worker_is_one_line(monkeypatch):
     pytest.importorskip("ray")
     from planning.parallel import run_items
 
-    here = str(Path(__file__).parent)                 # Ray's workers import this module by name
+    here = str(Path(__file__).parent)  # Ray's workers import this module by name
     monkeypatch.setenv("PYTHONPATH", os.pathsep.join(filter(None, [here, os.environ.get("PYTHONPATH")])))
 
     with pytest.raises(DomainError) as e:
@@ -444,19 +516,22 @@ def test_a_rollout_cache_of_other_domain_content_is_rebuilt(tmp_path):
     path = cache_path(model, 0, "internal", tmp_path)
     assert json.loads(path.read_text())["domain_sha256"] == identity(model)["domain_sha256"]
     toml = folder / "domain.toml"
-    toml.write_text(toml.read_text().replace("{ b = 0.8, a = 0.2 }", "{ b = 0.3, a = 0.7 }"))   # other targets
+    toml.write_text(toml.read_text().replace("{ b = 0.8, a = 0.2 }", "{ b = 0.3, a = 0.7 }"))  # other targets
     _compile_cached.cache_clear()
     try:
         edited = compile_domain(folder, "grid")
         with pytest.raises(DomainError) as e:
             load_records(edited, path, 0, "internal")
-        assert one_line(e) == (f"{path}: a rollout cache made from other content of domain 'minimal' (changed: "
-                               "domain.toml); delete it to recompute")
-        again = cached_rollout(edited, 0, 3, cache_dir=tmp_path, progress=False)     # planned again, replaced
+        assert one_line(e) == (
+            f"{path}: a rollout cache made from other content of domain 'minimal' (changed: "
+            "domain.toml); delete it to recompute"
+        )
+        again = cached_rollout(edited, 0, 3, cache_dir=tmp_path, progress=False)  # planned again, replaced
         assert len(again) == 3
         assert json.loads(path.read_text())["domain_sha256"] == identity(edited)["domain_sha256"]
-        assert [r.task for r in cached_rollout(edited, 0, 3, cache_dir=tmp_path, progress=False)] == \
-            [r.task for r in again]
+        assert [r.task for r in cached_rollout(edited, 0, 3, cache_dir=tmp_path, progress=False)] == [
+            r.task for r in again
+        ]
     finally:
         _compile_cached.cache_clear()
 
@@ -471,7 +546,7 @@ def test_a_labels_file_is_not_replaced_by_another_unless_forced(minimal, tmp_pat
     sys.argv, before = ["prog", "--domain", MINIMAL, "--out", str(out)], sys.argv
     try:
         main()
-        main()                                                  # the same label again: rewritten
+        main()  # the same label again: rewritten
     finally:
         sys.argv = before
     saved = json.loads(out.read_text())
@@ -500,9 +575,9 @@ def test_a_label_checkpoint_of_other_content_is_labelled_again(minimal, tmp_path
     s = minimal.init
     header = {**identity(minimal), "layout": "grid"}
     ck.write_text(json.dumps({**header, "labels": {str(s): [-7.0, [1, 1, 1], 0.0]}}))
-    assert label_states([s], tiny_cfg(), ck, progress=False)[s][0] == -7.0           # its own: resumed
+    assert label_states([s], tiny_cfg(), ck, progress=False)[s][0] == -7.0  # its own: resumed
     ck.write_text(json.dumps({**header, "domain_sha256": OTHER_DIGEST, "labels": {str(s): [-7.0, [1, 1, 1], 0.0]}}))
-    assert label_states([s], tiny_cfg(), ck, progress=False)[s][0] >= 0                # another's: labelled again
+    assert label_states([s], tiny_cfg(), ck, progress=False)[s][0] >= 0  # another's: labelled again
     assert json.loads(ck.read_text())["domain_sha256"] == identity(minimal)["domain_sha256"]
 
 
@@ -515,9 +590,11 @@ def test_reused_labels_must_be_of_this_layout_and_content(minimal, tmp_path):
     (other / "labels.partial.json").write_text(json.dumps({**labels, "domain": "restaurant", "layout": "two-room"}))
     with pytest.raises(DomainError) as e:
         known_labels([other], minimal)
-    assert one_line(e) == (f"{other}/labels.partial.json: labels of restaurant two-room, not of minimal grid; "
-                           f"leave out --reuse-labels {other}")
-    (other / "labels.partial.json").write_text(json.dumps(labels))          # an early checkpoint: its meta.json says
+    assert one_line(e) == (
+        f"{other}/labels.partial.json: labels of restaurant two-room, not of minimal grid; "
+        f"leave out --reuse-labels {other}"
+    )
+    (other / "labels.partial.json").write_text(json.dumps(labels))  # an early checkpoint: its meta.json says
     (other / "meta.json").write_text(json.dumps({**identity(minimal), "layout": "grid", "domain_sha256": OTHER_DIGEST}))
     with pytest.raises(DomainError, match=r"meta.json: labels made from other content of domain 'minimal'"):
         known_labels([other], minimal)
@@ -534,7 +611,7 @@ def test_a_prepared_stream_cache_of_another_stream_or_content_is_planned_again(m
     cache.write_text(json.dumps({**header, "tasks": rows}))
     assert cached_plans(cache, header, minimal) == rows
     assert cached_plans(cache, {**header, "seed": 2}, minimal) == []
-    cache.write_text(json.dumps({"layout": "grid", "seed": 1, "tasks": rows}))          # an early cache
+    cache.write_text(json.dumps({"layout": "grid", "seed": 1, "tasks": rows}))  # an early cache
     assert cached_plans(cache, header, minimal) == rows
     cache.write_text(json.dumps({**header, "domain_sha256": OTHER_DIGEST, "tasks": rows}))
     assert cached_plans(cache, header, minimal) == []

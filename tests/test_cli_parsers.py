@@ -1,4 +1,5 @@
 """Every command builds its parser with `planning.cli.parser`, which declares each shared option once."""
+
 import re
 import sys
 from pathlib import Path
@@ -27,8 +28,12 @@ def name(p: Path) -> str:
 
 def test_the_mains_are_found():
     found = {name(p) for p in mains()}
-    assert {"experiments/evaluate.py", "oracles/myopic.py", "planning/world/domain_check.py",
-            "examples/maskable_ppo_minimal.py"} <= found
+    assert {
+        "experiments/evaluate.py",
+        "oracles/myopic.py",
+        "planning/world/domain_check.py",
+        "examples/maskable_ppo_minimal.py",
+    } <= found
     assert len(found) >= 20
 
 
@@ -45,8 +50,9 @@ def declared(flag: str) -> list[str]:
     return [name(p) for p in sources() if pattern.search(p.read_text())]
 
 
-@pytest.mark.parametrize("flag", ["--no-progress", "--domain", "--layout", "--sequences", "--sequence", "--ray",
-                                  "--out"])
+@pytest.mark.parametrize(
+    "flag", ["--no-progress", "--domain", "--layout", "--sequences", "--sequence", "--ray", "--out"]
+)
 def test_a_shared_option_is_declared_only_in_cli(flag):
     assert declared(flag) == ["planning/cli.py"], flag
 
@@ -66,20 +72,49 @@ def test_the_default_domain_is_spelled_once():
 def test_shared_defaults():
     p = cli.parser("t", sequences=True, sequence=True, seed=True, progress=True, workers=True)
     args = vars(p.parse_args([]))
-    assert args == {"domain": "domains/restaurant", "layout": None, "sequences": "0-9", "sequence": 0, "seed": 0,
-                    "out": None, "no_progress": False, "workers": 1, "ray": False}
-    args = p.parse_args(["--domain", "domains/minimal", "--layout", "grid", "--sequences", "1,3", "--sequence", "4",
-                         "--seed", "7", "--no-progress", "--workers", "3", "--ray"])
-    assert (args.domain, args.layout, args.sequences, args.sequence, args.seed) == ("domains/minimal", "grid",
-                                                                                   "1,3", 4, 7)
+    assert args == {
+        "domain": "domains/restaurant",
+        "layout": None,
+        "sequences": "0-9",
+        "sequence": 0,
+        "seed": 0,
+        "out": None,
+        "no_progress": False,
+        "workers": 1,
+        "ray": False,
+    }
+    args = p.parse_args(
+        [
+            "--domain",
+            "domains/minimal",
+            "--layout",
+            "grid",
+            "--sequences",
+            "1,3",
+            "--sequence",
+            "4",
+            "--seed",
+            "7",
+            "--no-progress",
+            "--workers",
+            "3",
+            "--ray",
+        ]
+    )
+    assert (args.domain, args.layout, args.sequences, args.sequence, args.seed) == (
+        "domains/minimal",
+        "grid",
+        "1,3",
+        4,
+        7,
+    )
     assert (args.no_progress, args.workers, args.ray) == (True, 3, True)
 
 
 def test_only_the_options_asked_for(capsys):
     assert set(vars(cli.parser("t").parse_args([]))) == {"domain", "layout", "out"}
     assert set(vars(cli.parser("t", domain=False, layout=False, out=None).parse_args([]))) == set()
-    assert set(vars(cli.parser("t", layout=False, progress=True).parse_args([]))) == {"domain", "out",
-                                                                                     "no_progress"}
+    assert set(vars(cli.parser("t", layout=False, progress=True).parse_args([]))) == {"domain", "out", "no_progress"}
     with pytest.raises(SystemExit) as e:
         cli.parser("t", domain=False).parse_args(["--domain", "x"])
     assert e.value.code == 2
@@ -87,8 +122,11 @@ def test_only_the_options_asked_for(capsys):
 
 
 def test_helps_reword_only_the_help():
-    p = cli.parser("t", seed=True, helps={"layout": "check only this layout (default: every layout)",
-                                          "seed": "seed of the rollout"})
+    p = cli.parser(
+        "t",
+        seed=True,
+        helps={"layout": "check only this layout (default: every layout)", "seed": "seed of the rollout"},
+    )
     text = p.format_help()
     assert "check only this layout (default: every layout)" in text and "seed of the rollout" in text
     assert "the folder's first" not in text and "random seed" not in text

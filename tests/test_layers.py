@@ -1,4 +1,5 @@
 """The layering: planning -> oracles -> learning -> experiments; no module imports from a layer above its own."""
+
 import ast
 from pathlib import Path
 
@@ -26,7 +27,7 @@ def modules():
 @pytest.mark.parametrize("path", modules(), ids=lambda p: str(p.relative_to(ROOT)))
 def test_no_import_runs_up_the_layers(path):
     own = LAYERS.index(path.relative_to(ROOT).parts[0])
-    above = {layer for layer in LAYERS[own + 1:]} & imported_packages(path)
+    above = {layer for layer in LAYERS[own + 1 :]} & imported_packages(path)
     assert not above, f"{path.relative_to(ROOT)} imports from a layer above it: {sorted(above)}"
 
 
@@ -37,8 +38,14 @@ def test_the_check_sees_a_violation(tmp_path):
 
 
 # Inside planning/, bottom to top: a module imports only from its own level or below.
-PLANNING_LEVELS = [{"__init__", "errors", "atomic", "cli", "parallel", "states", "value"}, {"domain"}, {"external"},
-                   {"heuristics"}, {"search"}, {"world"}]
+PLANNING_LEVELS = [
+    {"__init__", "errors", "atomic", "cli", "parallel", "states", "value"},
+    {"domain"},
+    {"external"},
+    {"heuristics"},
+    {"search"},
+    {"world"},
+]
 
 
 def planning_level(name: str) -> int:
@@ -59,7 +66,7 @@ def imported_parts(path: Path, package: str = "planning", root: Path = ROOT) -> 
             if parts[0] == package:
                 out |= {parts[1]} if len(parts) > 1 else {a.name for a in node.names}
         elif isinstance(node, ast.ImportFrom) and node.level and own is not None:
-            depth = len(inside) - 1                       # folders between the package and the module
+            depth = len(inside) - 1  # folders between the package and the module
             if node.level <= depth:
                 out.add(own)
             elif node.module:
@@ -90,8 +97,15 @@ def test_the_planning_check_sees_a_violation(tmp_path):
 
 # Inside learning/, bottom to top: the shared basics, the Gymnasium environment, the Q-learner, the GNN,
 # the values (the registry, the exact value, the ranking), the agents, then the commands.
-LEARNING_LEVELS = [{"__init__", "encoding", "reward", "plain"}, {"gym_env"}, {"q"}, {"gnn"}, {"values"},
-                   {"agents"}, {"dqn", "gnn_dataset", "gnn_train", "export"}]
+LEARNING_LEVELS = [
+    {"__init__", "encoding", "reward", "plain"},
+    {"gym_env"},
+    {"q"},
+    {"gnn"},
+    {"values"},
+    {"agents"},
+    {"dqn", "gnn_dataset", "gnn_train", "export"},
+]
 
 
 def learning_level(name: str) -> int:
@@ -115,6 +129,8 @@ def test_the_learning_check_sees_a_violation(tmp_path):
     """A module of q/ that reaches up to the agents, relatively and by name, besides its own part."""
     bad = tmp_path / "learning" / "q" / "m.py"
     bad.parent.mkdir(parents=True)
-    bad.write_text("from ..agents.greedy import checkpoint_run_name\nfrom .targets import td_targets\n"
-                   "def f():\n    from learning.gnn.model import load_gnn\n    import learning.values\n")
+    bad.write_text(
+        "from ..agents.greedy import checkpoint_run_name\nfrom .targets import td_targets\n"
+        "def f():\n    from learning.gnn.model import load_gnn\n    import learning.values\n"
+    )
     assert imported_parts(bad, "learning", tmp_path) == {"agents", "q", "gnn", "values"}

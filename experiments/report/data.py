@@ -13,6 +13,7 @@ charged). What a reader should know but does not change the figure is a
 *note*: no provenance block (written before results files recorded one; the
 report then names the commit that last touched the file).
 """
+
 from __future__ import annotations
 
 import math
@@ -38,8 +39,9 @@ SPLITS = {"all ten": ALL, "development (01, 03, 06)": tuple(DEVELOPMENT), "held-
 def git(*args) -> str | None:
     """Output of a git command in this checkout (None if git or the checkout is missing)."""
     try:
-        r = subprocess.run(["git", *args], capture_output=True, text=True, timeout=20,
-                           cwd=Path(__file__).resolve().parents[1])
+        r = subprocess.run(
+            ["git", *args], capture_output=True, text=True, timeout=20, cwd=Path(__file__).resolve().parents[1]
+        )
     except (OSError, subprocess.SubprocessError):
         return None
     return r.stdout.strip() if r.returncode == 0 else None
@@ -49,8 +51,12 @@ def git(*args) -> str | None:
 def in_history(commit: str) -> bool:
     """True if `commit` is HEAD or one of its ancestors."""
     try:
-        r = subprocess.run(["git", "merge-base", "--is-ancestor", commit, "HEAD"], capture_output=True,
-                           timeout=20, cwd=Path(__file__).resolve().parents[1])
+        r = subprocess.run(
+            ["git", "merge-base", "--is-ancestor", commit, "HEAD"],
+            capture_output=True,
+            timeout=20,
+            cwd=Path(__file__).resolve().parents[1],
+        )
     except (OSError, subprocess.SubprocessError):
         return False
     return r.returncode == 0
@@ -88,9 +94,9 @@ class Loaded:
     """One run's results file as the report sees it."""
 
     run: Run
-    status: str                     # ok | not run | no checkpoint | agent not registered | in progress | not used
+    status: str  # ok | not run | no checkpoint | agent not registered | in progress | not used
     data: dict | None = None
-    note: str = ""                  # why it is not used, or what is missing
+    note: str = ""  # why it is not used, or what is missing
     flags: list = field(default_factory=list)
     notes: list = field(default_factory=list)
     accounting: str = ""
@@ -109,9 +115,11 @@ def accounting(data: dict) -> tuple[str, str | None]:
         return f"fallback ({len(failed)} failed tasks: executed + the optimal completion, which was executed)", None
     if all(r.get("completed_by") == "nothing" for r in failed):
         return f"abandoned, the thesis's protocol ({len(failed)} failed tasks at their executed cost)", None
-    return (f"charged, world left unfinished ({len(failed)} failed tasks)",
-            f"{len(failed)} failed tasks charged without executing their completion: written before the "
-            "fallback was executed, so later tasks start from worlds no finished task leaves; rerun it with --force")
+    return (
+        f"charged, world left unfinished ({len(failed)} failed tasks)",
+        f"{len(failed)} failed tasks charged without executing their completion: written before the "
+        "fallback was executed, so later tasks start from worlds no finished task leaves; rerun it with --force",
+    )
 
 
 def run_protocol(run: Run) -> str:
@@ -143,7 +151,7 @@ class Context:
         cls = agent_class(run.agent)
         p = cli.parser("reproduce", sequences=True, progress=True)
         p.add_argument("--agent")
-        run_options(p)                     # --failure-protocol and the other options every evaluation takes
+        run_options(p)  # --failure-protocol and the other options every evaluation takes
         cls.options(p)
         args = p.parse_args(["--domain", self.domain, *run.argv])
         return cls.from_args(args, self.model(run.layout))
@@ -160,8 +168,13 @@ def load_run(run: Run, ctx: Context) -> Loaded:
     out = Path(run.out)
     if Path(f"{out}.partial.json").is_file():
         pid = writer_pid(run)
-        return Loaded(run, "in progress", note=f"being written by process {pid}" if pid else
-                      "interrupted: a .partial.json is there (reproduce resumes it)")
+        return Loaded(
+            run,
+            "in progress",
+            note=f"being written by process {pid}"
+            if pid
+            else "interrupted: a .partial.json is there (reproduce resumes it)",
+        )
     if not out.is_file():
         return Loaded(run, "not run", note=f"`{run.out}` does not exist")
     data = read_json(out)
@@ -214,8 +227,13 @@ def split_figures(data: dict, ids) -> dict | None:
     tasks = sum(s["tasks"] for s in seqs)
     if not tasks:
         return None
-    return {"cost": sum(s["cost"] for s in seqs) / tasks, "success": sum(s["successes"] for s in seqs) / tasks,
-            "steps": sum(s["actions"] for s in seqs) / tasks, "sequences": [s["id"] for s in seqs], "tasks": tasks}
+    return {
+        "cost": sum(s["cost"] for s in seqs) / tasks,
+        "success": sum(s["successes"] for s in seqs) / tasks,
+        "steps": sum(s["actions"] for s in seqs) / tasks,
+        "sequences": [s["id"] for s in seqs],
+        "tasks": tasks,
+    }
 
 
 @dataclass

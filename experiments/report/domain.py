@@ -16,6 +16,7 @@ on the rows that exist; what only the restaurant has (the thesis's figures, the
 three-room ablation of Table 5.3, the discount sweep of Table A.5, the
 restaurant's reference tables) is named as not applicable.
 """
+
 from __future__ import annotations
 
 import re
@@ -41,8 +42,12 @@ from experiments.report.tables import (
 )
 
 CLAIRVOYANT_K = (2, 3)
-COMPARISONS = (("anticipatory-rl-guided", "myopic-rl-guided"), ("anticipatory-rl-guided", "myopic-oracle"),
-               ("anticipatory-rl-guided", "clairvoyant-2"), ("anticipatory-rl-greedy", "myopic-rl-greedy"))
+COMPARISONS = (
+    ("anticipatory-rl-guided", "myopic-rl-guided"),
+    ("anticipatory-rl-guided", "myopic-oracle"),
+    ("anticipatory-rl-guided", "clairvoyant-2"),
+    ("anticipatory-rl-greedy", "myopic-rl-greedy"),
+)
 """The pairs the statistics section tests where both rows exist (A against B)."""
 LEARNED = ("myopic-rl-greedy", "anticipatory-rl-greedy", "myopic-rl-guided", "anticipatory-rl-guided")
 NOT_APPLICABLE = [
@@ -97,37 +102,98 @@ def rows(ctx, layout: str) -> list[Row]:
 
     def rl_run(agent, horizon, s):
         ckpt = f"checkpoints/{domain}-rl-{horizon}-{layout}-seed{s}.pt"
-        train = (f"python -m learning.dqn --domain {folder} --layout {layout} --horizon {horizon} --seed {s} && "
-                 f"python -m learning.export runs/dqn/{domain}-{layout}-{horizon}-seed{s}")
-        return Run(agent, layout, (*d, "--checkpoint", ckpt),
-                   results_name(domain, f"{agent}-{horizon}-{layout}-seed{s}", layout), s, ckpt, train)
+        train = (
+            f"python -m learning.dqn --domain {folder} --layout {layout} --horizon {horizon} --seed {s} && "
+            f"python -m learning.export runs/dqn/{domain}-{layout}-{horizon}-seed{s}"
+        )
+        return Run(
+            agent,
+            layout,
+            (*d, "--checkpoint", ckpt),
+            results_name(domain, f"{agent}-{horizon}-{layout}-seed{s}", layout),
+            s,
+            ckpt,
+            train,
+        )
 
     def gnn_run(agent, variant, s):
         model = f"checkpoints/{domain}-gnn-{variant}-{layout}-seed{s}.pt"
-        return Run(agent, layout, (*d, "--model", model),
-                   results_name(domain, f"{agent}-{variant}-{layout}-seed{s}", layout), s, model, None)
+        return Run(
+            agent,
+            layout,
+            (*d, "--model", model),
+            results_name(domain, f"{agent}-{variant}-{layout}-seed{s}", layout),
+            s,
+            model,
+            None,
+        )
 
-    out = [Row("myopic-oracle", "Myopic oracle (Fast Downward)", layout,
-               (Run("myopic-oracle", layout, d, results_name(domain, "myopic-oracle", layout)),)),
-           Row("myopic-oracle-internal", "Myopic oracle (ours)", layout,
-               (Run("myopic-oracle", layout, (*d, "--planner", "internal"),
-                    results_name(domain, "myopic-oracle-internal", layout)),))]
+    out = [
+        Row(
+            "myopic-oracle",
+            "Myopic oracle (Fast Downward)",
+            layout,
+            (Run("myopic-oracle", layout, d, results_name(domain, "myopic-oracle", layout)),),
+        ),
+        Row(
+            "myopic-oracle-internal",
+            "Myopic oracle (ours)",
+            layout,
+            (
+                Run(
+                    "myopic-oracle",
+                    layout,
+                    (*d, "--planner", "internal"),
+                    results_name(domain, "myopic-oracle-internal", layout),
+                ),
+            ),
+        ),
+    ]
     for horizon in HORIZONS:
         seeds = rl_seeds(domain, layout, horizon) or [0]
         for agent, deployment in (("rl-greedy", "greedy"), ("rl-guided", "guided")):
-            out.append(Row(f"{horizon}-rl-{deployment}", f"{horizon.capitalize()} RL ({deployment})", layout,
-                           tuple(rl_run(agent, horizon, s) for s in seeds), seeded=True,
-                           template=rl_run(agent, horizon, "$N")))
-    for variant, key, label in (("faithful", "gnn", "One-task GNN"),
-                                ("augmented", "gnn-augmented", "One-task GNN (augmented)")):
+            out.append(
+                Row(
+                    f"{horizon}-rl-{deployment}",
+                    f"{horizon.capitalize()} RL ({deployment})",
+                    layout,
+                    tuple(rl_run(agent, horizon, s) for s in seeds),
+                    seeded=True,
+                    template=rl_run(agent, horizon, "$N"),
+                )
+            )
+    for variant, key, label in (
+        ("faithful", "gnn", "One-task GNN"),
+        ("augmented", "gnn-augmented", "One-task GNN (augmented)"),
+    ):
         seeds = gnn_seeds(domain, layout, variant)
         if seeds:
-            out.append(Row(key, label, layout, tuple(gnn_run("gnn-native", variant, s) for s in seeds),
-                           seeded=True, template=gnn_run("gnn-native", variant, "$N")))
+            out.append(
+                Row(
+                    key,
+                    label,
+                    layout,
+                    tuple(gnn_run("gnn-native", variant, s) for s in seeds),
+                    seeded=True,
+                    template=gnn_run("gnn-native", variant, "$N"),
+                )
+            )
     for K in CLAIRVOYANT_K:
-        out.append(Row(f"clairvoyant-{K}", f"Clairvoyant oracle (K = {K})", layout,
-                       (Run("clairvoyant", layout, (*d, "--K", str(K), "--time-limit", "60"),
-                            results_name(domain, f"clairvoyant-{K}", layout)),)))
+        out.append(
+            Row(
+                f"clairvoyant-{K}",
+                f"Clairvoyant oracle (K = {K})",
+                layout,
+                (
+                    Run(
+                        "clairvoyant",
+                        layout,
+                        (*d, "--K", str(K), "--time-limit", "60"),
+                        results_name(domain, f"clairvoyant-{K}", layout),
+                    ),
+                ),
+            )
+        )
     return out
 
 
@@ -145,8 +211,9 @@ def methods(results: dict) -> list[str]:
                 continue
             imp = "(reference)" if key == "myopic-oracle" else pct(improvement(rr, ref))
             succ = pm(100 * f["success"], 100 * f["success_std"] if f["success_std"] is not None else None) + "%"
-            body.append([rr.row.label, pm(f["cost"], f["cost_std"]) + dagger(rr), imp, succ, seeds_cell(rr),
-                         files_cell(rr)])
+            body.append(
+                [rr.row.label, pm(f["cost"], f["cost_std"]) + dagger(rr), imp, succ, seeds_cell(rr), files_cell(rr)]
+            )
         out += [f"### {layout}", ""]
         out += table(["method", "cost/task", "improvement", "success", "seeds", "results files"], body)
         out.append("")
@@ -164,9 +231,18 @@ def learned(results: dict) -> list[str]:
             if f is None:
                 body.append([layout, deployment, horizon, status(rr), "—", "—", seeds_cell(rr)])
                 continue
-            sd = lambda k, s=1, f=f: (f[f"{k}_std"] * s if f[f"{k}_std"] is not None else None)
-            body.append([layout, deployment, horizon, pm(100 * f["success"], sd("success", 100)),
-                         pm(f["steps"], sd("steps"), 2), pm(f["cost"], sd("cost")) + dagger(rr), seeds_cell(rr)])
+            sd = lambda k, s=1, f=f: f[f"{k}_std"] * s if f[f"{k}_std"] is not None else None
+            body.append(
+                [
+                    layout,
+                    deployment,
+                    horizon,
+                    pm(100 * f["success"], sd("success", 100)),
+                    pm(f["steps"], sd("steps"), 2),
+                    pm(f["cost"], sd("cost")) + dagger(rr),
+                    seeds_cell(rr),
+                ]
+            )
     return table(["layout", "deployment", "horizon", "success %", "steps/task", "cost/task", "seeds"], body)
 
 
@@ -178,14 +254,31 @@ def held_out(results: dict) -> list[str]:
             if rr.figures() is None:
                 continue
             dev, held, every = rr.figures(DEVELOPMENT), rr.figures(HELD_OUT), rr.figures(ALL)
-            body.append([layout, rr.row.label + dagger(rr), num(dev["cost"]) if dev else "—",
-                         num(held["cost"]) if held else "—", num(every["cost"]) if every else "—",
-                         "(reference)" if key == "myopic-oracle" else pct(improvement(rr, ref, DEVELOPMENT)),
-                         "(reference)" if key == "myopic-oracle" else pct(improvement(rr, ref, HELD_OUT))])
+            body.append(
+                [
+                    layout,
+                    rr.row.label + dagger(rr),
+                    num(dev["cost"]) if dev else "—",
+                    num(held["cost"]) if held else "—",
+                    num(every["cost"]) if every else "—",
+                    "(reference)" if key == "myopic-oracle" else pct(improvement(rr, ref, DEVELOPMENT)),
+                    "(reference)" if key == "myopic-oracle" else pct(improvement(rr, ref, HELD_OUT)),
+                ]
+            )
     if not body:
         return ["No results yet."]
-    return table(["layout", "method", "development 01, 03, 06", "held-out seven", "all ten",
-                  "improvement, development", "improvement, held-out"], body)
+    return table(
+        [
+            "layout",
+            "method",
+            "development 01, 03, 06",
+            "held-out seven",
+            "all ten",
+            "improvement, development",
+            "improvement, held-out",
+        ],
+        body,
+    )
 
 
 def clairvoyant_share(results: dict) -> list[str]:
@@ -223,13 +316,37 @@ def statistics(results: dict) -> list[str]:
                 res = stats.compare(ra.used, rb.used, ids)
                 w, t = res["wilcoxon"], res["welch"]
                 wil = f"W = {w['statistic']:g}, p = {w['p']:.4g}" if "p" in w else w["reason"]
-                welch = (f"t({t['df']:.1f}) = {t['t']:.2f}, p = {t['p']:.3g}; 95% CI "
-                         f"{pct(t['ci'][0], 1, False)} to {pct(t['ci'][1], 1, False)}" if "t" in t else t["reason"])
-                body.append([layout, label + (dagger(ra) or dagger(rb)), split, f"{w['a_cheaper']} of {w['n']}", wil,
-                             pct(t["reduction"]) if t.get("reduction") is not None else "—", welch,
-                             f"{t['n_a']} / {t['n_b']}"])
-    return table(["layout", "A vs B", "sequences", "A cheaper on", "Wilcoxon (exact, two-sided)",
-                  "reduction 1 − A/B (seed means)", "Welch's t across seeds", "seeds A / B"], body)
+                welch = (
+                    f"t({t['df']:.1f}) = {t['t']:.2f}, p = {t['p']:.3g}; 95% CI "
+                    f"{pct(t['ci'][0], 1, False)} to {pct(t['ci'][1], 1, False)}"
+                    if "t" in t
+                    else t["reason"]
+                )
+                body.append(
+                    [
+                        layout,
+                        label + (dagger(ra) or dagger(rb)),
+                        split,
+                        f"{w['a_cheaper']} of {w['n']}",
+                        wil,
+                        pct(t["reduction"]) if t.get("reduction") is not None else "—",
+                        welch,
+                        f"{t['n_a']} / {t['n_b']}",
+                    ]
+                )
+    return table(
+        [
+            "layout",
+            "A vs B",
+            "sequences",
+            "A cheaper on",
+            "Wilcoxon (exact, two-sided)",
+            "reduction 1 − A/B (seed means)",
+            "Welch's t across seeds",
+            "seeds A / B",
+        ],
+        body,
+    )
 
 
 def sequences_note(ctx, layouts) -> list[str]:
@@ -238,8 +355,10 @@ def sequences_note(ctx, layouts) -> list[str]:
     for layout in layouts:
         folder = Path(ctx.domain) / "sequences" / layout
         if not any(folder.glob("seq-*.json")):
-            out.append(f"- {layout}: no canonical sequences in `{folder}`: `python -m planning.world.sequences "
-                       f"--domain {ctx.domain} --layout {layout}` writes them (every row needs them).")
+            out.append(
+                f"- {layout}: no canonical sequences in `{folder}`: `python -m planning.world.sequences "
+                f"--domain {ctx.domain} --layout {layout}` writes them (every row needs them)."
+            )
     return out
 
 
@@ -252,8 +371,10 @@ def report(layouts, ctx, command: str) -> str:
     summary = []
     for layout in layouts:
         m = ctx.model(layout)
-        summary.append(f"- {layout}: {m.n_atoms} atoms, {m.n_actions} ground actions, {len(m.tasks)} task "
-                       f"instances of {len({t.type for t in m.tasks})} types (`{Path(m.files['problem']).name}`)")
+        summary.append(
+            f"- {layout}: {m.n_atoms} atoms, {m.n_actions} ground actions, {len(m.tasks)} task "
+            f"instances of {len({t.type for t in m.tasks})} types (`{Path(m.files['problem']).name}`)"
+        )
     lines = [
         f"# Measured results: {name}",
         "",

@@ -4,6 +4,7 @@ Every function returns None when it has nothing to draw, so the report can say
 "not run" instead of embedding an empty plot. Thesis figures, where the thesis
 states them, are drawn as open markers beside ours.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -57,8 +58,9 @@ def greedy_vs_guided(data: dict, thesis: dict, path) -> Path | None:
         ax.set_ylabel("cost per task (PDDL units)")
         ax.grid(axis="y", alpha=0.3)
         ax.legend(fontsize=8)
-    fig.suptitle("Figure 5.3: greedy vs value-guided deployment (points: seed mean; bars: min–max over seeds)",
-                 fontsize=9)
+    fig.suptitle(
+        "Figure 5.3: greedy vs value-guided deployment (points: seed mean; bars: min–max over seeds)", fontsize=9
+    )
     return _save(fig, path)
 
 
@@ -67,8 +69,9 @@ def improvement_bars(data: dict, path) -> Path | None:
     if not any(o is not None for rows in data.values() for _, o, _ in rows):
         return None
     layouts = list(data)
-    fig, axes = plt.subplots(1, len(layouts), figsize=(4.2 * len(layouts) + 1.8, 4.2), squeeze=False, sharey=True,
-                             layout="constrained")
+    fig, axes = plt.subplots(
+        1, len(layouts), figsize=(4.2 * len(layouts) + 1.8, 4.2), squeeze=False, sharey=True, layout="constrained"
+    )
     for ax, layout in zip(axes[0], layouts):
         rows = data[layout]
         y = np.arange(len(rows))
@@ -107,8 +110,7 @@ def sequence_distributions(data: dict, path) -> Path | None:
         ax.set_xlabel("mean cost per task of a 50-task sequence")
         ax.set_title(layout)
         ax.grid(axis="x", alpha=0.3)
-    fig.suptitle("Figure A.4: per-sequence cost distributions (sorted by median; dots: sequences × seeds)",
-                 fontsize=9)
+    fig.suptitle("Figure A.4: per-sequence cost distributions (sorted by median; dots: sequences × seeds)", fontsize=9)
     return _save(fig, path)
 
 
@@ -125,7 +127,7 @@ def cumulative_cost(data: dict, sequence: int, path) -> Path | None:
                 continue
             cum = np.array([np.cumsum(s) for s in seeds], dtype=float)
             x = np.arange(1, cum.shape[1] + 1)
-            line, = ax.plot(x, np.median(cum, axis=0), label=f"{label} ({len(seeds)} seed{'s' * (len(seeds) > 1)})")
+            (line,) = ax.plot(x, np.median(cum, axis=0), label=f"{label} ({len(seeds)} seed{'s' * (len(seeds) > 1)})")
             if len(seeds) > 1:
                 ax.fill_between(x, cum.min(axis=0), cum.max(axis=0), color=line.get_color(), alpha=0.2)
         ax.set_xlabel(f"task of sequence {sequence:02d}")
@@ -133,8 +135,9 @@ def cumulative_cost(data: dict, sequence: int, path) -> Path | None:
         ax.set_title(layout)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
-    fig.suptitle(f"Figure A.5: cumulative cost over sequence {sequence:02d} (median over seeds, min–max band)",
-                 fontsize=9)
+    fig.suptitle(
+        f"Figure A.5: cumulative cost over sequence {sequence:02d} (median over seeds, min–max band)", fontsize=9
+    )
     return _save(fig, path)
 
 
@@ -150,8 +153,14 @@ def cost_by_task_type(data: dict, path) -> Path | None:
         width = 0.8 / max(1, len(agents))
         for k, (label, per) in enumerate(agents.items()):
             x = np.arange(len(types)) + (k - (len(agents) - 1) / 2) * width
-            ax.bar(x, [per.get(t, (0, 0))[0] for t in types], width, yerr=[per.get(t, (0, 0))[1] for t in types],
-                   capsize=2, label=label)
+            ax.bar(
+                x,
+                [per.get(t, (0, 0))[0] for t in types],
+                width,
+                yerr=[per.get(t, (0, 0))[1] for t in types],
+                capsize=2,
+                label=label,
+            )
         ax.set_xticks(range(len(types)), types, rotation=30, ha="right", fontsize=8)
         ax.set_ylabel("mean cost per task")
         ax.set_title(layout)
@@ -161,8 +170,12 @@ def cost_by_task_type(data: dict, path) -> Path | None:
     return _save(fig, path)
 
 
-TRAINING_PANELS = (("success_rate", "success (last 100 tasks)"), ("task_return", "task return"),
-                   ("selected_q", "selected Q"), ("td_target", "TD target"))
+TRAINING_PANELS = (
+    ("success_rate", "success (last 100 tasks)"),
+    ("task_return", "task return"),
+    ("selected_q", "selected Q"),
+    ("td_target", "TD target"),
+)
 SYMLOG_ABOVE = 1e3
 """A panel whose values pass this (a diverged run's Q reaches 1e10) gets a symmetric log axis, linear
 within ±SYMLOG_LINEAR, so the healthy runs' curves stay apart."""
@@ -203,9 +216,19 @@ def training_curves(logs: dict, path) -> Path | None:
     fig, axes = plt.subplots(len(layouts), 4, figsize=(15, 3.2 * len(layouts)), squeeze=False, layout="constrained")
     for row, layout in zip(axes, layouts):
         for ax, (key, title) in zip(row, TRAINING_PANELS):
-            top = max([_band(ax, [rows for rows in runs.values() if rows], key,
-                             HORIZON_COLOURS.get(horizon, "black"), seeds_label(horizon, runs))
-                       for horizon, runs in logs[layout].items()], default=0.0)
+            top = max(
+                [
+                    _band(
+                        ax,
+                        [rows for rows in runs.values() if rows],
+                        key,
+                        HORIZON_COLOURS.get(horizon, "black"),
+                        seeds_label(horizon, runs),
+                    )
+                    for horizon, runs in logs[layout].items()
+                ],
+                default=0.0,
+            )
             if top > SYMLOG_ABOVE:
                 ax.set_yscale("symlog", linthresh=SYMLOG_LINEAR)
                 ax.set_ylabel(f"symlog (linear within ±{SYMLOG_LINEAR:g})", fontsize=7)
@@ -213,9 +236,11 @@ def training_curves(logs: dict, path) -> Path | None:
             ax.set_xlabel("training step")
             ax.grid(alpha=0.3)
         row[0].legend(fontsize=7)
-    fig.suptitle("Figure A.1: training diagnostics (median over the seeds drawn, min–max band; legend: seeds drawn "
-                 f"of the row's runs; Q and TD target on a symlog axis where a run passes {SYMLOG_ABOVE:,.0f})",
-                 fontsize=9)
+    fig.suptitle(
+        "Figure A.1: training diagnostics (median over the seeds drawn, min–max band; legend: seeds drawn "
+        f"of the row's runs; Q and TD target on a symlog axis where a run passes {SYMLOG_ABOVE:,.0f})",
+        fontsize=9,
+    )
     return _save(fig, path)
 
 
@@ -255,14 +280,34 @@ def minimal_example(ours: dict, thesis: dict, path) -> Path | None:
     for k, (place, colour) in enumerate((("A", "tab:olive"), ("B", "tab:purple"))):
         xs = x + (k - 0.5) * 0.36
         ax.bar(xs, [ours[h][f"q_{place}"] for h in horizons], 0.34, color=colour, label=f"learned Q, place on {place}")
-        ax.scatter(xs, [ours[h].get(f"exact_q_{place}", np.nan) for h in horizons], marker="_", s=400,
-                   color="black", zorder=3, label="exact (BFS)" if k == 0 else None)
-        ax.scatter(xs, [thesis.get(h, {}).get(f"q_{place}", np.nan) for h in horizons], marker="o",
-                   facecolors="none", edgecolors="tab:gray", s=60, zorder=3, label="thesis" if k == 0 else None)
+        ax.scatter(
+            xs,
+            [ours[h].get(f"exact_q_{place}", np.nan) for h in horizons],
+            marker="_",
+            s=400,
+            color="black",
+            zorder=3,
+            label="exact (BFS)" if k == 0 else None,
+        )
+        ax.scatter(
+            xs,
+            [thesis.get(h, {}).get(f"q_{place}", np.nan) for h in horizons],
+            marker="o",
+            facecolors="none",
+            edgecolors="tab:gray",
+            s=60,
+            zorder=3,
+            label="thesis" if k == 0 else None,
+        )
     for i, h in enumerate(horizons):
         gap, share = ours[h]["q_B"] - ours[h]["q_A"], ours[h].get("share_B")
-        ax.text(i, max(ours[h]["q_A"], ours[h]["q_B"]) + 0.9, f"gap {gap:+.3f}" +
-                (f", {100 * share:.1f}% on B" if share is not None else ""), ha="center", fontsize=8)
+        ax.text(
+            i,
+            max(ours[h]["q_A"], ours[h]["q_B"]) + 0.9,
+            f"gap {gap:+.3f}" + (f", {100 * share:.1f}% on B" if share is not None else ""),
+            ha="center",
+            fontsize=8,
+        )
     ax.set_xticks(x, horizons)
     ax.set_ylabel("Q(s, clear(c), place(apple, ·))")
     ax.set_ylim(0, max(max(ours[h]["q_A"], ours[h]["q_B"]) for h in horizons) * 1.25)

@@ -6,6 +6,7 @@ progress", "not used") and the commands that would make them are listed once,
 in `missing_runs`. A dagger (†) marks a figure built on a flagged results file
 (the flags are in the provenance table).
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -30,8 +31,10 @@ from experiments.report.specs import (
 )
 
 MISSING = "[commands](#runs-not-yet-made)"
-SHARE_TEXT = ("`(C_myopic − C) / (C_myopic − C_clairvoyant-K)`: the part of the clairvoyant oracle's saving an agent "
-              "recovers without seeing the future.")
+SHARE_TEXT = (
+    "`(C_myopic − C) / (C_myopic − C_clairvoyant-K)`: the part of the clairvoyant oracle's saving an agent "
+    "recovers without seeing the future."
+)
 """What the share of the clairvoyant saving is, as both reports introduce their table of it."""
 
 
@@ -108,15 +111,39 @@ def table_5_2(results: dict) -> list[str]:
                 ours = [status(rr), "—", "—"]
             else:
                 imp = "(reference)" if key == "myopic-oracle" else pct(improvement(rr, ref))
-                ours = [pm(f["cost"], f["cost_std"]) + dagger(rr), imp,
-                        pm(100 * f["success"], 100 * f["success_std"] if f["success_std"] is not None else None) + "%"]
-            body.append([rr.row.label, *ours, seeds_cell(rr), thesis_cost(t),
-                         "—" if t.get("improvement") is None else ("— (0%)" if key == "myopic-oracle"
-                                                                   else pct(t["improvement"])),
-                         thesis_success(t), files_cell(rr)])
+                ours = [
+                    pm(f["cost"], f["cost_std"]) + dagger(rr),
+                    imp,
+                    pm(100 * f["success"], 100 * f["success_std"] if f["success_std"] is not None else None) + "%",
+                ]
+            body.append(
+                [
+                    rr.row.label,
+                    *ours,
+                    seeds_cell(rr),
+                    thesis_cost(t),
+                    "—"
+                    if t.get("improvement") is None
+                    else ("— (0%)" if key == "myopic-oracle" else pct(t["improvement"])),
+                    thesis_success(t),
+                    files_cell(rr),
+                ]
+            )
         out += [f"### {layout}", ""]
-        out += table(["method", "cost/task", "improvement", "success", "seeds", "thesis cost/task",
-                      "thesis improvement", "thesis success", "results files"], body)
+        out += table(
+            [
+                "method",
+                "cost/task",
+                "improvement",
+                "success",
+                "seeds",
+                "thesis cost/task",
+                "thesis improvement",
+                "thesis success",
+                "results files",
+            ],
+            body,
+        )
         out.append("")
     return out
 
@@ -133,19 +160,46 @@ def table_5_3(results: dict) -> list[str]:
         f = rr.figures()
         t = THESIS["three-room"][key]
         cost[key] = f["cost"] if f else None
-        body.append([label, status(rr) if f is None else pm(f["cost"], f["cost_std"]) + dagger(rr),
-                     "—" if f is None else pct(improvement(rr, ref)), seeds_cell(rr), thesis_cost(t),
-                     pct(t.get("improvement")), files_cell(rr)])
-    out = table(["configuration", "cost/task", "improvement", "seeds", "thesis cost/task", "thesis improvement",
-                 "results files"], body)
-    value = (cost["gnn-augmented-bn"] - cost["anticipatory-rl-guided"]
-             if None not in (cost["gnn-augmented-bn"], cost["anticipatory-rl-guided"]) else None)
-    search = (cost["gnn-augmented"] - cost["gnn-augmented-bn"]
-              if None not in (cost["gnn-augmented"], cost["gnn-augmented-bn"]) else None)
-    out += ["", f"Holding the search fixed, the anticipatory value accounts for "
-                f"{num(value) if value is not None else 'a reduction not yet measurable (not run)'} "
-                f"(thesis 209); the search, holding the GNN value fixed, for "
-                f"{num(search) if search is not None else 'a reduction not yet measurable (not run)'} (thesis 121)."]
+        body.append(
+            [
+                label,
+                status(rr) if f is None else pm(f["cost"], f["cost_std"]) + dagger(rr),
+                "—" if f is None else pct(improvement(rr, ref)),
+                seeds_cell(rr),
+                thesis_cost(t),
+                pct(t.get("improvement")),
+                files_cell(rr),
+            ]
+        )
+    out = table(
+        [
+            "configuration",
+            "cost/task",
+            "improvement",
+            "seeds",
+            "thesis cost/task",
+            "thesis improvement",
+            "results files",
+        ],
+        body,
+    )
+    value = (
+        cost["gnn-augmented-bn"] - cost["anticipatory-rl-guided"]
+        if None not in (cost["gnn-augmented-bn"], cost["anticipatory-rl-guided"])
+        else None
+    )
+    search = (
+        cost["gnn-augmented"] - cost["gnn-augmented-bn"]
+        if None not in (cost["gnn-augmented"], cost["gnn-augmented-bn"])
+        else None
+    )
+    out += [
+        "",
+        f"Holding the search fixed, the anticipatory value accounts for "
+        f"{num(value) if value is not None else 'a reduction not yet measurable (not run)'} "
+        f"(thesis 209); the search, holding the GNN value fixed, for "
+        f"{num(search) if search is not None else 'a reduction not yet measurable (not run)'} (thesis 121).",
+    ]
     return out
 
 
@@ -164,20 +218,47 @@ def table_a_4(results: dict) -> list[str]:
             if f is None:
                 ours = [status(rr), "—", "—"]
             else:
-                sd = lambda k, s=1, f=f: (f[f"{k}_std"] * s if f[f"{k}_std"] is not None else None)
-                ours = [pm(100 * f["success"], sd("success", 100)), pm(f["steps"], sd("steps"), 2),
-                        pm(f["cost"], sd("cost")) + dagger(rr)]
-            body.append([layout, deployment, horizon, *ours, seeds_cell(rr),
-                         pm(100 * t["success"], 100 * t["success_std"]), pm(t["steps"], t["steps_std"], 2),
-                         thesis_cost(t)])
-    return table(["layout", "deployment", "horizon", "success %", "steps/task", "cost/task", "seeds",
-                  "thesis success %", "thesis steps/task", "thesis cost/task"], body) + [
-        "", "A failed task (its 64 actions spent) is completed by the fallback in our rows: its optimal "
-            "completion is executed and charged, and the next task starts where a finished task would leave "
-            "the world. The thesis abandoned it instead (the world stays as left, the executed cost only); the "
-            "rows marked *thesis protocol* replay the same checkpoints that way, for comparison with its "
-            "figures. Under that protocol a row claims no improvement over the myopic oracle unless every "
-            "task succeeded."]
+                sd = lambda k, s=1, f=f: f[f"{k}_std"] * s if f[f"{k}_std"] is not None else None
+                ours = [
+                    pm(100 * f["success"], sd("success", 100)),
+                    pm(f["steps"], sd("steps"), 2),
+                    pm(f["cost"], sd("cost")) + dagger(rr),
+                ]
+            body.append(
+                [
+                    layout,
+                    deployment,
+                    horizon,
+                    *ours,
+                    seeds_cell(rr),
+                    pm(100 * t["success"], 100 * t["success_std"]),
+                    pm(t["steps"], t["steps_std"], 2),
+                    thesis_cost(t),
+                ]
+            )
+    return table(
+        [
+            "layout",
+            "deployment",
+            "horizon",
+            "success %",
+            "steps/task",
+            "cost/task",
+            "seeds",
+            "thesis success %",
+            "thesis steps/task",
+            "thesis cost/task",
+        ],
+        body,
+    ) + [
+        "",
+        "A failed task (its 64 actions spent) is completed by the fallback in our rows: its optimal "
+        "completion is executed and charged, and the next task starts where a finished task would leave "
+        "the world. The thesis abandoned it instead (the world stays as left, the executed cost only); the "
+        "rows marked *thesis protocol* replay the same checkpoints that way, for comparison with its "
+        "figures. Under that protocol a row claims no improvement over the myopic oracle unless every "
+        "task succeeded.",
+    ]
 
 
 # ---- held-out seven vs development three ----------------------------------------------------
@@ -191,13 +272,31 @@ def held_out(results: dict) -> list[str]:
                 continue
             dev, held, every = rr.figures(DEVELOPMENT), rr.figures(HELD_OUT), rr.figures(ALL)
             thesis = THESIS_HELD_OUT.get(layout, {}).get(key)
-            body.append([layout, rr.row.label + dagger(rr), num(dev["cost"]) if dev else "—",
-                         num(held["cost"]) if held else "—", num(every["cost"]) if every else "—",
-                         "(reference)" if key == "myopic-oracle" else pct(improvement(rr, ref, DEVELOPMENT)),
-                         "(reference)" if key == "myopic-oracle" else pct(improvement(rr, ref, HELD_OUT)),
-                         num(thesis, 0) if thesis else "—"])
-    return table(["layout", "method", "development 01, 03, 06", "held-out seven", "all ten",
-                  "improvement, development", "improvement, held-out", "thesis held-out"], body)
+            body.append(
+                [
+                    layout,
+                    rr.row.label + dagger(rr),
+                    num(dev["cost"]) if dev else "—",
+                    num(held["cost"]) if held else "—",
+                    num(every["cost"]) if every else "—",
+                    "(reference)" if key == "myopic-oracle" else pct(improvement(rr, ref, DEVELOPMENT)),
+                    "(reference)" if key == "myopic-oracle" else pct(improvement(rr, ref, HELD_OUT)),
+                    num(thesis, 0) if thesis else "—",
+                ]
+            )
+    return table(
+        [
+            "layout",
+            "method",
+            "development 01, 03, 06",
+            "held-out seven",
+            "all ten",
+            "improvement, development",
+            "improvement, held-out",
+            "thesis held-out",
+        ],
+        body,
+    )
 
 
 # ---- share of the clairvoyant saving ---------------------------------------------------------
@@ -219,10 +318,27 @@ def clairvoyant_share(results: dict) -> list[str]:
             for K in (2, 3, 4):
                 ck = rows[f"clairvoyant-{K}"].figures(f["sequences"])
                 cells.append(pct(share(ref["cost"], f["cost"], ck["cost"] if ck else None), 0, False))
-            body.append([layout, rr.row.label + dagger(rr), pct(improvement(rr, rows["myopic-oracle"])), *cells,
-                         _thesis_share(layout, key)])
-    return table(["layout", "method", "improvement", "share of K = 2 saving", "share of K = 3 saving",
-                  "share of K = 4 saving", "thesis share of K = 3 saving"], body)
+            body.append(
+                [
+                    layout,
+                    rr.row.label + dagger(rr),
+                    pct(improvement(rr, rows["myopic-oracle"])),
+                    *cells,
+                    _thesis_share(layout, key),
+                ]
+            )
+    return table(
+        [
+            "layout",
+            "method",
+            "improvement",
+            "share of K = 2 saving",
+            "share of K = 3 saving",
+            "share of K = 4 saving",
+            "thesis share of K = 3 saving",
+        ],
+        body,
+    )
 
 
 def _thesis_share(layout: str, key: str) -> str:
@@ -246,20 +362,45 @@ def statistics(results: dict) -> list[str]:
                 thesis = _thesis_stats(th)
                 if not ra.used or not rb.used:
                     missing = " and ".join(r.row.label for r in (ra, rb) if not r.used)
-                    body.append([layout, label, split, f"not run ({missing}: {MISSING})", "—", "—", "—", "—",
-                                 thesis])
+                    body.append([layout, label, split, f"not run ({missing}: {MISSING})", "—", "—", "—", "—", thesis])
                     continue
                 res = stats.compare(ra.used, rb.used, ids)
                 w, t = res["wilcoxon"], res["welch"]
-                wil = (f"W = {w['statistic']:g}, p = {w['p']:.4g}" if "p" in w else w["reason"])
-                welch = (f"t({t['df']:.1f}) = {t['t']:.2f}, p = {t['p']:.3g}; 95% CI "
-                         f"{pct(t['ci'][0], 1, False)} to {pct(t['ci'][1], 1, False)}" if "t" in t else t["reason"])
+                wil = f"W = {w['statistic']:g}, p = {w['p']:.4g}" if "p" in w else w["reason"]
+                welch = (
+                    f"t({t['df']:.1f}) = {t['t']:.2f}, p = {t['p']:.3g}; 95% CI "
+                    f"{pct(t['ci'][0], 1, False)} to {pct(t['ci'][1], 1, False)}"
+                    if "t" in t
+                    else t["reason"]
+                )
                 flag = dagger(ra) or dagger(rb)
-                body.append([layout, label + flag, split, f"{w['a_cheaper']} of {w['n']}", wil,
-                             pct(t["reduction"]) if t.get("reduction") is not None else "—", welch,
-                             f"{t['n_a']} / {t['n_b']}", thesis])
-    return table(["layout", "A vs B", "sequences", "A cheaper on", "Wilcoxon (exact, two-sided)",
-                  "reduction 1 − A/B (seed means)", "Welch's t across seeds", "seeds A / B", "thesis"], body)
+                body.append(
+                    [
+                        layout,
+                        label + flag,
+                        split,
+                        f"{w['a_cheaper']} of {w['n']}",
+                        wil,
+                        pct(t["reduction"]) if t.get("reduction") is not None else "—",
+                        welch,
+                        f"{t['n_a']} / {t['n_b']}",
+                        thesis,
+                    ]
+                )
+    return table(
+        [
+            "layout",
+            "A vs B",
+            "sequences",
+            "A cheaper on",
+            "Wilcoxon (exact, two-sided)",
+            "reduction 1 − A/B (seed means)",
+            "Welch's t across seeds",
+            "seeds A / B",
+            "thesis",
+        ],
+        body,
+    )
 
 
 def _thesis_stats(th: dict) -> str:
@@ -271,8 +412,10 @@ def _thesis_stats(th: dict) -> str:
     if "reduction" in th:
         parts.append(f"reduction {pct(th['reduction'], 1, False)}")
     if "t" in th:
-        parts.append(f"t({th['df']}) = {th['t']}, p = {th['welch_p']}, CI {pct(th['ci'][0], 1, False)}–"
-                     f"{pct(th['ci'][1], 1, False)}")
+        parts.append(
+            f"t({th['df']}) = {th['t']}, p = {th['welch_p']}, CI {pct(th['ci'][0], 1, False)}–"
+            f"{pct(th['ci'][1], 1, False)}"
+        )
     return "; ".join(parts) or "—"
 
 
@@ -289,14 +432,32 @@ def discount_table() -> list[str]:
             continue
         share = [r["action_share"].get("refill-water", 0.0) for r in rows if isinstance(r.get("action_share"), dict)]
         mean = lambda xs: float(np.nanmean(xs)) if xs else float("nan")
-        body.append([f"{gamma:.2f}", f"{mean([r['success_rate'] for r in rows]):.3f} ({rows[-1]['step']:,} steps)",
-                     f"{mean([r['selected_q'] for r in rows]):.1f}", pct(mean(share), 2, False), *thesis])
-    return table(["γ", "training success (mean over the run)", "mean selected Q",
-                 "refill-water share of actions", "thesis jar share of water deliveries",
-                 "thesis success", "thesis mean Q"], body) + [
-        "", "Three-room anticipatory, seed 0. `learning.dqn` logs the share of refill-water among all actions, not "
-            "the jar's share of water deliveries the thesis tabulates (Figure A.2 plots the former), so the two "
-            "columns are not the same measure. `--discount-sweep` trains these runs (each 500k steps)."]
+        body.append(
+            [
+                f"{gamma:.2f}",
+                f"{mean([r['success_rate'] for r in rows]):.3f} ({rows[-1]['step']:,} steps)",
+                f"{mean([r['selected_q'] for r in rows]):.1f}",
+                pct(mean(share), 2, False),
+                *thesis,
+            ]
+        )
+    return table(
+        [
+            "γ",
+            "training success (mean over the run)",
+            "mean selected Q",
+            "refill-water share of actions",
+            "thesis jar share of water deliveries",
+            "thesis success",
+            "thesis mean Q",
+        ],
+        body,
+    ) + [
+        "",
+        "Three-room anticipatory, seed 0. `learning.dqn` logs the share of refill-water among all actions, not "
+        "the jar's share of water deliveries the thesis tabulates (Figure A.2 plots the former), so the two "
+        "columns are not the same measure. `--discount-sweep` trains these runs (each 500k steps).",
+    ]
 
 
 # ---- what is missing ------------------------------------------------------------------------

@@ -6,6 +6,7 @@ not yet made and every results file's provenance, then the hand-kept notes as an
 the report (a PNG that can no longer be drawn is removed) and returns the markdown; a figure with nothing to
 draw is one line naming what it needs.
 """
+
 from __future__ import annotations
 
 import time
@@ -67,22 +68,65 @@ def from_logs(draw, path: Path, logs: list[str]) -> tuple[Path | None, int]:
 def figures(results: dict, folder: Path) -> tuple[dict[str, tuple[Path | None, str]], dict[str, int]]:
     """{figure: (PNG or None, what it needs when None)}, every figure of the report, and {figure: training logs
     missing here} for those kept as committed (`from_logs`)."""
-    f53 = {layout: {(h, d): (rows[f"{h}-rl-{d}"].figures() or {}).get("cost_seeds", [])
-                    for h in ("myopic", "anticipatory") for d in ("greedy", "guided")} for layout, rows in results.items()}
-    th53 = {layout: {(h, d): THESIS[layout][f"{h}-rl-{d}"]["cost"] for h in ("myopic", "anticipatory")
-                     for d in ("greedy", "guided")} for layout in results}
-    f54 = {layout: [(rows[k].row.label, improvement(rows[k], rows["myopic-oracle"]), THESIS[layout][k].get("improvement"))
-                    for k in (*AGENTS, "clairvoyant-2", "clairvoyant-3", "clairvoyant-4")]
-           for layout, rows in results.items()}
-    fa4 = {layout: [(rows[k].row.label, [s["cost"] / s["tasks"] for d in rows[k].used for s in d["per_sequence"]])
-                    for k in A4_ROWS] for layout, rows in results.items()}
-    fa5 = {layout: [(rows[k].row.label, [[r["cost"] for r in sorted(d["per_task"], key=lambda r: r["index"])
-                                          if r["sequence"] == FIGURE_A5_SEQUENCE] for d in rows[k].used])
-                    for k in A5_ROWS] for layout, rows in results.items()}
-    fa6 = {layout: {rows[k].row.label + ("" if len(rows[k].used) > 1 else " (SE over tasks: 1 seed)"): by_task_type(rows[k])
-                    for k in A6_ROWS if rows[k].used} for layout, rows in results.items()}
-    logs = {layout: {h: {s: curve(p) for s, p in training_logs(layout, h)} for h in ("myopic", "anticipatory")}
-            for layout in results}
+    f53 = {
+        layout: {
+            (h, d): (rows[f"{h}-rl-{d}"].figures() or {}).get("cost_seeds", [])
+            for h in ("myopic", "anticipatory")
+            for d in ("greedy", "guided")
+        }
+        for layout, rows in results.items()
+    }
+    th53 = {
+        layout: {
+            (h, d): THESIS[layout][f"{h}-rl-{d}"]["cost"]
+            for h in ("myopic", "anticipatory")
+            for d in ("greedy", "guided")
+        }
+        for layout in results
+    }
+    f54 = {
+        layout: [
+            (rows[k].row.label, improvement(rows[k], rows["myopic-oracle"]), THESIS[layout][k].get("improvement"))
+            for k in (*AGENTS, "clairvoyant-2", "clairvoyant-3", "clairvoyant-4")
+        ]
+        for layout, rows in results.items()
+    }
+    fa4 = {
+        layout: [
+            (rows[k].row.label, [s["cost"] / s["tasks"] for d in rows[k].used for s in d["per_sequence"]])
+            for k in A4_ROWS
+        ]
+        for layout, rows in results.items()
+    }
+    fa5 = {
+        layout: [
+            (
+                rows[k].row.label,
+                [
+                    [
+                        r["cost"]
+                        for r in sorted(d["per_task"], key=lambda r: r["index"])
+                        if r["sequence"] == FIGURE_A5_SEQUENCE
+                    ]
+                    for d in rows[k].used
+                ],
+            )
+            for k in A5_ROWS
+        ]
+        for layout, rows in results.items()
+    }
+    fa6 = {
+        layout: {
+            rows[k].row.label + ("" if len(rows[k].used) > 1 else " (SE over tasks: 1 seed)"): by_task_type(rows[k])
+            for k in A6_ROWS
+            if rows[k].used
+        }
+        for layout, rows in results.items()
+    }
+    logs = {
+        layout: {h: {s: curve(p) for s, p in training_logs(layout, h)} for h in ("myopic", "anticipatory")}
+        for layout in results
+    }
     a2, a2_logs = {}, []
     if "three-room" in results:
         seed0 = {h: f"{rl_run_dir(h, 'three-room', 0)}/metrics.jsonl" for h in ("anticipatory", "myopic")}
@@ -92,45 +136,56 @@ def figures(results: dict, folder: Path) -> tuple[dict[str, tuple[Path | None, s
         a2["myopic"] = curve(seed0["myopic"])
     minimal = reference.read("results/minimal-example.json") or {}
     a1 = figs.training_curves(logs, folder / "fig-A-1-training.png")
-    a2_png, a2_missing = from_logs(lambda path: figs.refill_share(a2, path), folder / "fig-A-2-refill-water.png", a2_logs)
+    a2_png, a2_missing = from_logs(
+        lambda path: figs.refill_share(a2, path), folder / "fig-A-2-refill-water.png", a2_logs
+    )
     kept = {"A.2": a2_missing} if a2_missing else {}
     need_logs = "training logs `runs/dqn/restaurant-<layout>-<horizon>-seed<N>/metrics.jsonl` (`python -m learning.dqn ...`; runs/ is not committed)"
     return {
-        "5.1b": (figs.minimal_example({h: minimal[h] for h in ("myopic", "anticipatory") if h in minimal},
-                                      THESIS_MINIMAL, folder / "fig-5-1b-minimal-example.png"),
-                 "`results/minimal-example.json` (`python -m experiments.minimal_example --out results/minimal-example.json`)"),
-        "5.3": (figs.greedy_vs_guided(f53, th53, folder / "fig-5-3-greedy-vs-guided.png"),
-                "the greedy and guided results files of Table A.4"),
+        "5.1b": (
+            figs.minimal_example(
+                {h: minimal[h] for h in ("myopic", "anticipatory") if h in minimal},
+                THESIS_MINIMAL,
+                folder / "fig-5-1b-minimal-example.png",
+            ),
+            "`results/minimal-example.json` (`python -m experiments.minimal_example --out results/minimal-example.json`)",
+        ),
+        "5.3": (
+            figs.greedy_vs_guided(f53, th53, folder / "fig-5-3-greedy-vs-guided.png"),
+            "the greedy and guided results files of Table A.4",
+        ),
         "5.4": (figs.improvement_bars(f54, folder / "fig-5-4-improvement.png"), "Table 5.2's results files"),
         "A.1": (a1, need_logs),
         "A.2": (a2_png, "three-room training logs (seed 0, the Table A.5 discounts: `--discount-sweep`)"),
         "A.4": (figs.sequence_distributions(fa4, folder / "fig-A-4-sequence-costs.png"), "Table 5.2's results files"),
-        "A.5": (figs.cumulative_cost(fa5, FIGURE_A5_SEQUENCE, folder / "fig-A-5-cumulative-cost.png"),
-                "Table 5.2's results files"),
+        "A.5": (
+            figs.cumulative_cost(fa5, FIGURE_A5_SEQUENCE, folder / "fig-A-5-cumulative-cost.png"),
+            "Table 5.2's results files",
+        ),
         "A.6": (figs.cost_by_task_type(fa6, folder / "fig-A-6-task-types.png"), "the guided agents' results files"),
     }, kept
 
 
 FIGURE_TEXT = {
     "5.1b": "Figure 5.1b: the minimal example's learned Q of the two task-1 placements (bars), the exact values by "
-            "breadth-first search (black ticks) and the thesis's (open circles; its anticipatory ones are 9 + 0.99 V "
-            "from its V_A ≈ 3.5, V_B ≈ 8.6).",
+    "breadth-first search (black ticks) and the thesis's (open circles; its anticipatory ones are 9 + 0.99 V "
+    "from its V_A ≈ 3.5, V_B ≈ 8.6).",
     "5.3": "Figure 5.3: greedy against value-guided deployment of the myopic and anticipatory values, both layouts. "
-           "Points: mean over checkpoint seeds; bars: min–max over seeds; open squares: the thesis. Greedy costs "
-           "include failed tasks, each completed by the fallback and charged what it executed plus its completion.",
+    "Points: mean over checkpoint seeds; bars: min–max over seeds; open squares: the thesis. Greedy costs "
+    "include failed tasks, each completed by the fallback and charged what it executed plus its completion.",
     "5.4": "Figure 5.4: improvement over each layout's myopic oracle per agent, ours beside the thesis's.",
     "A.1": "Figure A.1: training diagnostics: success over the last 100 tasks, task return, selected Q and TD "
-           "target; median over the seeds drawn with the min–max band. Every exported run of the learned rows' seeds "
-           "is counted; a run is drawn from the curve its results file keeps, else from its `runs/` log where "
-           "this checkout has one, and the legend gives the seeds drawn of all. Selected Q and TD target are on "
-           "a symmetric log axis (linear within ±10) where a diverged run passes 1,000.",
+    "target; median over the seeds drawn with the min–max band. Every exported run of the learned rows' seeds "
+    "is counted; a run is drawn from the curve its results file keeps, else from its `runs/` log where "
+    "this checkout has one, and the legend gives the seeds drawn of all. Selected Q and TD target are on "
+    "a symmetric log axis (linear within ±10) where a diverged run passes 1,000.",
     "A.2": "Figure A.2: share of all actions so far that are refill-water, over training (three-room, seed 0; cumulative since step 0, as the authors' code counts it).",
     "A.4": "Figure A.4: distribution of the mean cost per task of each 50-task sequence (every seed's), per agent, "
-           "sorted by median; the clairvoyant oracle is K = 3.",
+    "sorted by median; the clairvoyant oracle is K = 3.",
     "A.5": f"Figure A.5: cumulative cost over sequence {FIGURE_A5_SEQUENCE:02d} (50 tasks) per method: median over "
-           "seeds, min–max band where there are several.",
+    "seeds, min–max band where there are several.",
     "A.6": "Figure A.6: mean cost per task type for the guided agents, the augmented GNN (where run) and the myopic "
-           "oracle; error bars: standard error over seeds, or over the tasks of the type where a row has one seed.",
+    "oracle; error bars: standard error over seeds, or over the tasks of the type where a row has one seed.",
 }
 
 
@@ -141,7 +196,7 @@ def report(layouts, ctx: Context, out: Path, command: str) -> str:
     results = {layout: load_rows(row_specs(layout), ctx) for layout in layouts}
     folder = out.parent / "figures"
     drawn, kept = figures(results, folder)
-    for old in folder.glob("fig-*.png"):          # a figure that can no longer be drawn is not left behind
+    for old in folder.glob("fig-*.png"):  # a figure that can no longer be drawn is not left behind
         if old not in {path for path, _ in drawn.values()}:
             old.unlink()
     lines = [
@@ -208,18 +263,32 @@ def report(layouts, ctx: Context, out: Path, command: str) -> str:
         else:
             lines += [f"![Figure {name}](figures/{path.name})", "", FIGURE_TEXT[name], ""]
             if name in kept:
-                lines += [f"Kept as committed: drawn in a checkout that had its training logs; this one lacks "
-                          f"{kept[name]} of them (`runs/` is not committed), so it was not redrawn.", ""]
+                lines += [
+                    f"Kept as committed: drawn in a checkout that had its training logs; this one lacks "
+                    f"{kept[name]} of them (`runs/` is not committed), so it was not redrawn.",
+                    "",
+                ]
     lines += ["## Table A.5: the discount sweep (optional)", "", *tables.discount_table(), ""]
-    ckpts = [str(p) for layout in layouts for h in ("myopic", "anticipatory")
-             for p in sorted(Path("checkpoints").glob(f"rl-{h}-{layout}-seed*.pt"),
-                             key=lambda p: (int(p.stem.split("-seed")[1].split("-")[0]), p.name))]
+    ckpts = [
+        str(p)
+        for layout in layouts
+        for h in ("myopic", "anticipatory")
+        for p in sorted(
+            Path("checkpoints").glob(f"rl-{h}-{layout}-seed*.pt"),
+            key=lambda p: (int(p.stem.split("-seed")[1].split("-")[0]), p.name),
+        )
+    ]
     for title, body in reference.everything(layouts, ckpts, sha256).items():
         lines += [f"## {title}", "", *body, ""]
     lines += provenance.closing(results)
     if NOTES.is_file():
-        lines += ["## Appendix: hand-kept notes (not generated)", "",
-                  f"Included verbatim from `{NOTES}`; each note names the results file it reads.", "",
-                  NOTES.read_text().strip(), ""]
+        lines += [
+            "## Appendix: hand-kept notes (not generated)",
+            "",
+            f"Included verbatim from `{NOTES}`; each note names the results file it reads.",
+            "",
+            NOTES.read_text().strip(),
+            "",
+        ]
     lines += [f"<!-- generated in {time.perf_counter() - started:.1f} s -->", ""]
     return "\n".join(lines)

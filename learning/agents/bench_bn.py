@@ -29,6 +29,7 @@ thread (planning.parallel.one_thread); on a shared machine run it under
 `nice` and read the ratios, not the absolute times. `--no-reference` times
 the new search alone.
 """
+
 from __future__ import annotations
 
 import copy
@@ -55,9 +56,17 @@ def _timed(search, *args, **kw):
     c0, t0 = time.process_time(), time.perf_counter()
     r = search(*args, **kw)
     s = r.stats
-    return r, {"seconds": s.seconds, "wall": time.perf_counter() - t0, "cpu": time.process_time() - c0,
-               "value": s.value_seconds, "simulator": s.simulator_seconds, "novelty": s.novelty_seconds,
-               "expansions": s.expansions, "value_calls": s.value_calls, "value_states": s.value_states}
+    return r, {
+        "seconds": s.seconds,
+        "wall": time.perf_counter() - t0,
+        "cpu": time.process_time() - c0,
+        "value": s.value_seconds,
+        "simulator": s.simulator_seconds,
+        "novelty": s.novelty_seconds,
+        "expansions": s.expansions,
+        "value_calls": s.value_calls,
+        "value_states": s.value_states,
+    }
 
 
 def _summary(rows: list, key: str) -> dict:
@@ -65,17 +74,34 @@ def _summary(rows: list, key: str) -> dict:
     total = {k: sum(r[key][k] for r in rows) for k in PARTS}
     n = max(len(rows), 1)
     sec = max(total["seconds"], 1e-12)
-    return {"expansions_per_s": total["expansions"] / sec, "seconds_per_task": total["seconds"] / n,
-            "cpu_seconds_per_task": total["cpu"] / n,
-            "max_seconds": max((r[key]["seconds"] for r in rows), default=0.0),
-            "shares": {"value": total["value"] / sec, "simulator": total["simulator"] / sec,
-                       "novelty": total["novelty"] / sec,
-                       "rest": 1 - (total["value"] + total["simulator"] + total["novelty"]) / sec},
-            "value_calls_per_task": total["value_calls"] / n, "value_states_per_task": total["value_states"] / n}
+    return {
+        "expansions_per_s": total["expansions"] / sec,
+        "seconds_per_task": total["seconds"] / n,
+        "cpu_seconds_per_task": total["cpu"] / n,
+        "max_seconds": max((r[key]["seconds"] for r in rows), default=0.0),
+        "shares": {
+            "value": total["value"] / sec,
+            "simulator": total["simulator"] / sec,
+            "novelty": total["novelty"] / sec,
+            "rest": 1 - (total["value"] + total["simulator"] + total["novelty"]) / sec,
+        },
+        "value_calls_per_task": total["value_calls"] / n,
+        "value_states_per_task": total["value_states"] / n,
+    }
 
 
-def benchmark(model, value, tasks: list, reset_seed: int, budget: int, beta: float, depth_cap: int = DEPTH_CAP,
-              prefetch: int = PREFETCH, progress: bool = True, reference: bool = True) -> dict:
+def benchmark(
+    model,
+    value,
+    tasks: list,
+    reset_seed: int,
+    budget: int,
+    beta: float,
+    depth_cap: int = DEPTH_CAP,
+    prefetch: int = PREFETCH,
+    progress: bool = True,
+    reference: bool = True,
+) -> dict:
     """Play `tasks` from the world of `reset_seed` with the search (and time the reference on each task).
 
     A Q-network value keeps its compiled values from one search to the next (its memo, as the agents use
@@ -89,12 +115,12 @@ def benchmark(model, value, tasks: list, reset_seed: int, budget: int, beta: flo
     if callable(getattr(value, "set_memo", None)) and getattr(value, "memo", False):
         bare = copy.copy(value)
         bare.set_memo(False)
-    for v in (value, bare):                            # build the compiled kernels first, outside the timing
+    for v in (value, bare):  # build the compiled kernels first, outside the timing
         if tasks and v is not None:
             bellman_novelty_search(model, world.state, tasks[0], v, budget=1, beta=beta, depth_cap=depth_cap)
     for i, task in enumerate(tasks):
         if world.begin(task):
-            continue                                   # already satisfied: no search
+            continue  # already satisfied: no search
         t0 = time.perf_counter()
         ref = optimal_plan(bm, world.state, task)
         t_ref = time.perf_counter() - t0
@@ -103,17 +129,28 @@ def benchmark(model, value, tasks: list, reset_seed: int, budget: int, beta: flo
         order = ["new"] + (["no_memo"] if bare is not None else []) + (["reference"] if reference else [])
         for which in order if len(rows) % 2 == 0 else order[::-1]:
             search = bellman_novelty_search_reference if which == "reference" else bellman_novelty_search
-            runs[which] = _timed(search, model, state, task, bare if which == "no_memo" else value,
-                                 reference_plan=ref.plan, **kw)
+            runs[which] = _timed(
+                search, model, state, task, bare if which == "no_memo" else value, reference_plan=ref.plan, **kw
+            )
         r, new = runs["new"]
         s = r.stats
         if r.plan is None:
             world.abandon()
         else:
             world.execute(r.plan)
-        row = {"index": i, "task": task.name, "c_myo": s.c_myo, "cost": s.cost, "source": s.source,
-               "expansions": s.expansions, "terminals": s.terminals, "eligible": s.eligible, "nodes": s.nodes,
-               "new": new, "reference_seconds": t_ref}
+        row = {
+            "index": i,
+            "task": task.name,
+            "c_myo": s.c_myo,
+            "cost": s.cost,
+            "source": s.source,
+            "expansions": s.expansions,
+            "terminals": s.terminals,
+            "eligible": s.eligible,
+            "nodes": s.nodes,
+            "new": new,
+            "reference_seconds": t_ref,
+        }
         if bare is not None:
             rb, row["no_memo"] = runs["no_memo"]
             assert rb.plan == r.plan, "a value kept from an earlier search changed a choice"
@@ -122,16 +159,24 @@ def benchmark(model, value, tasks: list, reset_seed: int, budget: int, beta: flo
             row.update(reference=old, same_plan=rr.plan == r.plan, reference_cost=rr.stats.cost)
         rows.append(row)
         if progress:
-            line = (f"{i:3d} {task.name:34s} C_myo {s.c_myo:6} chose {s.cost:6} ({s.source:9s}) "
-                    f"{s.expansions:6d} exp {new['seconds']:6.3f} s (value {new['value']:5.3f})")
+            line = (
+                f"{i:3d} {task.name:34s} C_myo {s.c_myo:6} chose {s.cost:6} ({s.source:9s}) "
+                f"{s.expansions:6d} exp {new['seconds']:6.3f} s (value {new['value']:5.3f})"
+            )
             if reference:
-                line += (f"; reference {row['reference']['seconds']:6.2f} s, "
-                         f"{'same plan' if row['same_plan'] else 'OTHER PLAN'}")
+                line += (
+                    f"; reference {row['reference']['seconds']:6.2f} s, "
+                    f"{'same plan' if row['same_plan'] else 'OTHER PLAN'}"
+                )
             print(line, flush=True)
-    out = {"searched_tasks": len(rows), **_summary(rows, "new"),
-           "reference_seconds_per_task": sum(r["reference_seconds"] for r in rows) / max(len(rows), 1),
-           "cost_per_task": float(np.mean([r["cost"] if r["cost"] is not None else np.nan for r in rows]))
-           if rows else None}
+    out = {
+        "searched_tasks": len(rows),
+        **_summary(rows, "new"),
+        "reference_seconds_per_task": sum(r["reference_seconds"] for r in rows) / max(len(rows), 1),
+        "cost_per_task": float(np.mean([r["cost"] if r["cost"] is not None else np.nan for r in rows]))
+        if rows
+        else None,
+    }
     if bare is not None:
         out["no_memo"] = _summary(rows, "no_memo")
     if reference:
@@ -139,10 +184,13 @@ def benchmark(model, value, tasks: list, reset_seed: int, budget: int, beta: flo
         out["reference_implementation"] = old
 
         def speedup(key):
-            return {"per_expansion": _summary(rows, key)["expansions_per_s"] / max(old["expansions_per_s"], 1e-12),
-                    "cpu": sum(r["reference"]["cpu"] for r in rows) / max(sum(r[key]["cpu"] for r in rows), 1e-12),
-                    "min_task": min((r["reference"]["seconds"] / max(r[key]["seconds"], 1e-12) for r in rows),
-                                    default=None)}
+            return {
+                "per_expansion": _summary(rows, key)["expansions_per_s"] / max(old["expansions_per_s"], 1e-12),
+                "cpu": sum(r["reference"]["cpu"] for r in rows) / max(sum(r[key]["cpu"] for r in rows), 1e-12),
+                "min_task": min(
+                    (r["reference"]["seconds"] / max(r[key]["seconds"], 1e-12) for r in rows), default=None
+                ),
+            }
 
         out["speedup"] = speedup("new")
         if bare is not None:
@@ -165,12 +213,24 @@ def main() -> None:
     p.add_argument("--budget", type=int, default=None, help="expansions per task (default: the thesis's)")
     p.add_argument("--beta", type=float, default=None, help="cost slack (default: the thesis's)")
     p.add_argument("--depth-cap", type=int, default=DEPTH_CAP)
-    p.add_argument("--prefetch", type=int, default=PREFETCH,
-                   help="most states per Python value call (0: no prefetch; a compiled value needs none)")
-    p.add_argument("--no-reference", dest="reference", action="store_false",
-                   help="do not time the reference implementation (no ratio)")
-    p.add_argument("--no-memo", dest="memo", action="store_false",
-                   help="the compiled value keeps no values from one search to the next (else both are timed)")
+    p.add_argument(
+        "--prefetch",
+        type=int,
+        default=PREFETCH,
+        help="most states per Python value call (0: no prefetch; a compiled value needs none)",
+    )
+    p.add_argument(
+        "--no-reference",
+        dest="reference",
+        action="store_false",
+        help="do not time the reference implementation (no ratio)",
+    )
+    p.add_argument(
+        "--no-memo",
+        dest="memo",
+        action="store_false",
+        help="the compiled value keeps no values from one search to the next (else both are timed)",
+    )
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args()
     from planning.parallel import one_thread
@@ -185,36 +245,57 @@ def main() -> None:
         tasks, reset = draw_tasks(model, args.seed, args.tasks), args.seed
     else:
         from planning.world.sequences import load
+
         seq = load(model, [args.sequence])[0]
-        tasks, reset = seq.tasks[:args.tasks], seq.reset_seed
+        tasks, reset = seq.tasks[: args.tasks], seq.reset_seed
     defaults = search_defaults(model)
     budget = args.budget if args.budget is not None else defaults.get("budget", 5000)
     beta = args.beta if args.beta is not None else defaults.get("beta", 1.25)
-    r = benchmark(model, value, tasks, reset, budget, beta, args.depth_cap, args.prefetch, not args.quiet,
-                  args.reference)
+    r = benchmark(
+        model, value, tasks, reset, budget, beta, args.depth_cap, args.prefetch, not args.quiet, args.reference
+    )
     sh = r["shares"]
     print(f"{model.layout}: {r['searched_tasks']} searched tasks, budget {budget}, beta {beta:g}")
-    print(f"  {r['expansions_per_s']:,.0f} expansions/s, {r['seconds_per_task']:.3f} s per task "
-          f"(max {r['max_seconds']:.2f} s); reference planner {r['reference_seconds_per_task']:.3f} s per task")
-    print(f"  time: value {sh['value']:.0%}, simulator {sh['simulator']:.0%}, novelty {sh['novelty']:.0%}, "
-          f"heaps and bookkeeping {sh['rest']:.0%}; {r['value_calls_per_task']:.0f} value calls and "
-          f"{r['value_states_per_task']:.0f} states valued per task")
+    print(
+        f"  {r['expansions_per_s']:,.0f} expansions/s, {r['seconds_per_task']:.3f} s per task "
+        f"(max {r['max_seconds']:.2f} s); reference planner {r['reference_seconds_per_task']:.3f} s per task"
+    )
+    print(
+        f"  time: value {sh['value']:.0%}, simulator {sh['simulator']:.0%}, novelty {sh['novelty']:.0%}, "
+        f"heaps and bookkeeping {sh['rest']:.0%}; {r['value_calls_per_task']:.0f} value calls and "
+        f"{r['value_states_per_task']:.0f} states valued per task"
+    )
     if args.reference:
         old, up = r["reference_implementation"], r["speedup"]
-        print(f"  reference implementation: {old['expansions_per_s']:,.0f} expansions/s, "
-              f"{old['seconds_per_task']:.3f} s per task")
-        print(f"  speed-up {up['per_expansion']:.1f}x per expansion ({up['cpu']:.1f}x in CPU time, "
-              f"{up['min_task']:.1f}x on the least sped-up task); same plan on {r['same_plans']} of "
-              f"{r['searched_tasks']} tasks")
+        print(
+            f"  reference implementation: {old['expansions_per_s']:,.0f} expansions/s, "
+            f"{old['seconds_per_task']:.3f} s per task"
+        )
+        print(
+            f"  speed-up {up['per_expansion']:.1f}x per expansion ({up['cpu']:.1f}x in CPU time, "
+            f"{up['min_task']:.1f}x on the least sped-up task); same plan on {r['same_plans']} of "
+            f"{r['searched_tasks']} tasks"
+        )
         if "speedup_no_memo" in r:
             up = r["speedup_no_memo"]
-            print(f"  without the value memo: {r['no_memo']['expansions_per_s']:,.0f} expansions/s, "
-                  f"{r['no_memo']['seconds_per_task']:.3f} s per task, speed-up {up['per_expansion']:.1f}x per "
-                  f"expansion ({up['cpu']:.1f}x in CPU time)")
+            print(
+                f"  without the value memo: {r['no_memo']['expansions_per_s']:,.0f} expansions/s, "
+                f"{r['no_memo']['seconds_per_task']:.3f} s per task, speed-up {up['per_expansion']:.1f}x per "
+                f"expansion ({up['cpu']:.1f}x in CPU time)"
+            )
     if args.out:
-        config = {"layout": model.layout, **({} if kind == "q-network" else {"value": kind}), "checkpoint": arg,
-                  "budget": budget, "beta": beta, "depth_cap": args.depth_cap, "prefetch": args.prefetch,
-                  "memo": args.memo, "sequence": None if args.stream else args.sequence, "tasks": args.tasks}
+        config = {
+            "layout": model.layout,
+            **({} if kind == "q-network" else {"value": kind}),
+            "checkpoint": arg,
+            "budget": budget,
+            "beta": beta,
+            "depth_cap": args.depth_cap,
+            "prefetch": args.prefetch,
+            "memo": args.memo,
+            "sequence": None if args.stream else args.sequence,
+            "tasks": args.tasks,
+        }
         write_json(args.out, {**config, **r, "provenance": results_provenance(config)})
         print(f"wrote {args.out}")
 

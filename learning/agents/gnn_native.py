@@ -34,6 +34,7 @@ the task's optimal plan from there, kept if that completes the task only at its 
 clause still true; otherwise (or if longer than the task's action budget) the candidate is
 dropped and counted in the row (`dropped`).
 """
+
 from __future__ import annotations
 
 import json
@@ -51,7 +52,7 @@ from planning.world.agents import Planner, Reply
 GENERATORS = ("domain", "clause-library")
 """`--generator`: the domain's declared candidates, or the dataset's clause library regardless."""
 MAX_CLAUSES = 10
-TIME_LIMIT = 300.0           # seconds per search: a guard; on this machine every search ends well within it
+TIME_LIMIT = 300.0  # seconds per search: a guard; on this machine every search ends well within it
 
 
 def select(costs, estimates) -> int:
@@ -91,11 +92,17 @@ def candidate_accuracy(per_task: list) -> dict | None:
         excess.append(c[chosen] + x[chosen] - c[ideal] - x[ideal])
         departs += ideal != 0
         gain.append(c[0] + x[0] - c[ideal] - x[ideal])
-    return {"tasks": len(rows), "candidates": int(len(est)), "mae": round(float(np.mean(np.abs(est - exact))), 2),
-            "spearman": round(float(stats.spearmanr(est, exact)[0]), 4),
-            "within_task_pairs_right": round(float(np.mean(pairs)), 4) if pairs else None,
-            "same_choice_as_exact": round(same / len(rows), 4), "mean_excess": round(float(np.mean(excess)), 2),
-            "exact_departs": round(departs / len(rows), 4), "exact_gain": round(float(np.mean(gain)), 2)}
+    return {
+        "tasks": len(rows),
+        "candidates": int(len(est)),
+        "mae": round(float(np.mean(np.abs(est - exact))), 2),
+        "spearman": round(float(stats.spearmanr(est, exact)[0]), 4),
+        "within_task_pairs_right": round(float(np.mean(pairs)), 4) if pairs else None,
+        "same_choice_as_exact": round(same / len(rows), 4),
+        "mean_excess": round(float(np.mean(excess)), 2),
+        "exact_departs": round(departs / len(rows), 4),
+        "exact_gain": round(float(np.mean(gain)), 2),
+    }
 
 
 class ClauseGoal:
@@ -144,11 +151,16 @@ class CandidateCache:
         try:
             header = json.loads(lines[0])
         except json.JSONDecodeError:
-            raise DomainError(self.path, "not a candidate cache (its first line is not JSON); delete it to replan") from None
+            raise DomainError(
+                self.path, "not a candidate cache (its first line is not JSON); delete it to replan"
+            ) from None
         if header != self.header:
             diff = sorted(k for k in {*header, *self.header} if header.get(k) != self.header.get(k))
-            raise DomainError(self.path, f"made for another domain or settings ({', '.join(diff)} differ); "
-                                         "delete it or pass another --candidates")
+            raise DomainError(
+                self.path,
+                f"made for another domain or settings ({', '.join(diff)} differ); "
+                "delete it or pass another --candidates",
+            )
         for n, line in enumerate(lines[1:], 2):
             if not line.strip():
                 continue
@@ -156,11 +168,17 @@ class CandidateCache:
                 e = json.loads(line)
                 plans = [[self.model.action(a) for a in p] for _, p in e["plans"]]
                 self.table[(int(e["state"], 16), e["task"])] = (
-                    [c for c, _ in e["plans"]], plans, int(e["dropped"]), int(e["in_region"]))
+                    [c for c, _ in e["plans"]],
+                    plans,
+                    int(e["dropped"]),
+                    int(e["in_region"]),
+                )
             except (json.JSONDecodeError, KeyError, TypeError, ValueError) as err:
-                if n == len(lines):          # a write cut short by an interruption: planned again
+                if n == len(lines):  # a write cut short by an interruption: planned again
                     continue
-                raise DomainError(self.path, f"line {n} is not a candidate entry ({err}); delete the file to replan") from None
+                raise DomainError(
+                    self.path, f"line {n} is not a candidate entry ({err}); delete the file to replan"
+                ) from None
 
     def _append(self, entry: dict) -> None:
         self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -180,8 +198,15 @@ class CandidateCache:
     def put(self, state: int, task, names: list, plans: list, dropped: int, in_region: int) -> None:
         self.table[(state, task.name)] = (names, plans, dropped, in_region)
         actions = self.model.actions
-        self._append({"state": format(state, "x"), "task": task.name, "dropped": dropped, "in_region": in_region,
-                      "plans": [[c, [actions[a] for a in p]] for c, p in zip(names, plans)]})
+        self._append(
+            {
+                "state": format(state, "x"),
+                "task": task.name,
+                "dropped": dropped,
+                "in_region": in_region,
+                "plans": [[c, [actions[a] for a in p]] for c, p in zip(names, plans)],
+            }
+        )
 
 
 class GNNNativePlanner(Planner):
@@ -194,30 +219,69 @@ class GNNNativePlanner(Planner):
         from oracles.myopic import PLANNERS
 
         p.add_argument("--model", required=True, help="GNN checkpoint (learning.gnn_train's best.pt)")
-        p.add_argument("--max-clauses", type=int, default=None,
-                       help="augmented candidates per task (default: [gnn.candidates] max_clauses, else %s)" % MAX_CLAUSES)
-        p.add_argument("--reference", default="internal", choices=PLANNERS,
-                       help="planner of the myopic candidate (default: %(default)s, exact)")
-        p.add_argument("--time-limit", type=float, default=TIME_LIMIT,
-                       help="seconds per search: the myopic plan, or all the augmented ones together (default: %(default)s)")
-        p.add_argument("--candidates", default=None,
-                       help="the candidate cache file, shared by runs that plan alike (default: "
-                            "runs/gnn/candidates/DOMAIN-LAYOUT-REFERENCE[-focused]-cMAX.jsonl; 'none': plan every task)")
-        p.add_argument("--generator", default="domain", choices=GENERATORS,
-                       help="the candidates: the domain's [gnn.candidates] (default; the clause library where it "
-                            "declares none), or the clause library whatever the domain declares (the runs made "
-                            "before the focused generator; their results end in -clause-library)")
-        p.add_argument("--exact-labels", action="store_true",
-                       help="also label every scored candidate with the exact C_AP (oracles.labelling), for the record")
+        p.add_argument(
+            "--max-clauses",
+            type=int,
+            default=None,
+            help="augmented candidates per task (default: [gnn.candidates] max_clauses, else %s)" % MAX_CLAUSES,
+        )
+        p.add_argument(
+            "--reference",
+            default="internal",
+            choices=PLANNERS,
+            help="planner of the myopic candidate (default: %(default)s, exact)",
+        )
+        p.add_argument(
+            "--time-limit",
+            type=float,
+            default=TIME_LIMIT,
+            help="seconds per search: the myopic plan, or all the augmented ones together (default: %(default)s)",
+        )
+        p.add_argument(
+            "--candidates",
+            default=None,
+            help="the candidate cache file, shared by runs that plan alike (default: "
+            "runs/gnn/candidates/DOMAIN-LAYOUT-REFERENCE[-focused]-cMAX.jsonl; 'none': plan every task)",
+        )
+        p.add_argument(
+            "--generator",
+            default="domain",
+            choices=GENERATORS,
+            help="the candidates: the domain's [gnn.candidates] (default; the clause library where it "
+            "declares none), or the clause library whatever the domain declares (the runs made "
+            "before the focused generator; their results end in -clause-library)",
+        )
+        p.add_argument(
+            "--exact-labels",
+            action="store_true",
+            help="also label every scored candidate with the exact C_AP (oracles.labelling), for the record",
+        )
 
     @classmethod
     def from_args(cls, args, model) -> "GNNNativePlanner":
-        return cls(model, args.model, args.max_clauses, args.reference, args.time_limit, args.exact_labels,
-                   candidates=args.candidates, generator=getattr(args, "generator", "domain"))
+        return cls(
+            model,
+            args.model,
+            args.max_clauses,
+            args.reference,
+            args.time_limit,
+            args.exact_labels,
+            candidates=args.candidates,
+            generator=getattr(args, "generator", "domain"),
+        )
 
-    def __init__(self, model, gnn, max_clauses: int | None = None, reference: str = "internal",
-                 time_limit: float = TIME_LIMIT, exact_labels: bool = False, estimate=None, candidates: str | None = "none",
-                 generator: str = "domain"):
+    def __init__(
+        self,
+        model,
+        gnn,
+        max_clauses: int | None = None,
+        reference: str = "internal",
+        time_limit: float = TIME_LIMIT,
+        exact_labels: bool = False,
+        estimate=None,
+        candidates: str | None = "none",
+        generator: str = "domain",
+    ):
         """`estimate(states) -> Ĉ_AP array`: the scorer (default: the checkpoint's GNNValue.c_ap).
         `max_clauses`: None for the domain's [gnn.candidates] max_clauses (else MAX_CLAUSES).
         `candidates`: the CandidateCache file (None: the default one; "none": no cache)."""
@@ -242,21 +306,38 @@ class GNNNativePlanner(Planner):
         self.exact_labels = exact_labels
         self._labeller = None
         if self.focused is None:
-            described = {"max_clauses": self.max_clauses, "min_clause_cost": self.min_cost,
-                         "clauses": len(self.library), "region": "myopic plan locations + one move",
-                         "candidate_generator": {"kind": "clause-library", "source": "learning.gnn.dataset.ClauseLibrary "
-                                                 "(no [gnn.candidates] in domain.toml)", "order": "h_max, then library order"}}
+            described = {
+                "max_clauses": self.max_clauses,
+                "min_clause_cost": self.min_cost,
+                "clauses": len(self.library),
+                "region": "myopic plan locations + one move",
+                "candidate_generator": {
+                    "kind": "clause-library",
+                    "source": "learning.gnn.dataset.ClauseLibrary (no [gnn.candidates] in domain.toml)",
+                    "order": "h_max, then library order",
+                },
+            }
         else:
-            described = {"max_clauses": self.max_clauses,
-                         "region": f"myopic plan locations + those within {self.focused.hops} base hop(s) "
-                                   f"({self.focused.hops * self.focused.base_hop})",
-                         "candidate_generator": {**self.focused.describe(), "order": "sorted objects, families in order; no cost sort"}}
-        self.config = {**(model_summary(gnn) if estimate is None else {"model": str(gnn)}), **described,
-                       "selection": "cost + C_AP estimate, lowest; the myopic plan unless strictly beaten",
-                       "reference": self.reference.config}
-        self.run_name = checkpoint_run_name(self.name, gnn, "gnn-") + ("" if reference == "internal" else f"-{reference}")
+            described = {
+                "max_clauses": self.max_clauses,
+                "region": f"myopic plan locations + those within {self.focused.hops} base hop(s) "
+                f"({self.focused.hops * self.focused.base_hop})",
+                "candidate_generator": {
+                    **self.focused.describe(),
+                    "order": "sorted objects, families in order; no cost sort",
+                },
+            }
+        self.config = {
+            **(model_summary(gnn) if estimate is None else {"model": str(gnn)}),
+            **described,
+            "selection": "cost + C_AP estimate, lowest; the myopic plan unless strictly beaten",
+            "reference": self.reference.config,
+        }
+        self.run_name = checkpoint_run_name(self.name, gnn, "gnn-") + (
+            "" if reference == "internal" else f"-{reference}"
+        )
         if generator == "clause-library" and declared is not None:
-            self.config.pop("candidate_generator")      # as every results file made before the focused generator
+            self.config.pop("candidate_generator")  # as every results file made before the focused generator
             self.run_name += "-clause-library"
         from planning.domain.batched import BatchedModel
         from planning.heuristics.hmax import HMax
@@ -266,11 +347,20 @@ class GNNNativePlanner(Planner):
         from learning.gnn.dataset import JOINT_HEURISTIC
 
         if self.focused is None:
-            settings = {"reference": reference, "max_clauses": self.max_clauses, "min_clause_cost": self.min_cost,
-                        "clauses": len(self.library), "joint_heuristic": JOINT_HEURISTIC}
+            settings = {
+                "reference": reference,
+                "max_clauses": self.max_clauses,
+                "min_clause_cost": self.min_cost,
+                "clauses": len(self.library),
+                "joint_heuristic": JOINT_HEURISTIC,
+            }
         else:
-            settings = {"reference": reference, "max_clauses": self.max_clauses, "joint_heuristic": JOINT_HEURISTIC,
-                        "generator": self.focused.describe()}
+            settings = {
+                "reference": reference,
+                "max_clauses": self.max_clauses,
+                "joint_heuristic": JOINT_HEURISTIC,
+                "generator": self.focused.describe(),
+            }
         if candidates is None:
             kind = "" if self.focused is None else "-focused"
             candidates = f"runs/gnn/candidates/{model.name}-{model.layout}-{reference}{kind}-c{self.max_clauses}.jsonl"
@@ -307,21 +397,26 @@ class GNNNativePlanner(Planner):
         """The clauses planned ([ClauseGoal], in order, at most max_clauses) and how many the generator
         proposed. `plan`: the myopic plan's actions (default: recovered from the path)."""
         if self.focused is not None:
-
-            found = self.focused.clauses(state, actions_along(self.model, myopic_path) if plan is None else plan,
-                                         myopic_path)
+            found = self.focused.clauses(
+                state, actions_along(self.model, myopic_path) if plan is None else plan, myopic_path
+            )
             return [ClauseGoal(c.pos, c.neg, c.text) for c in found[: self.max_clauses]], len(found)
         region = self.region.around(myopic_path)
         eligible = self.library.eligible(state, self.hmax, self.bm, self.min_cost)
-        inside = [k for k in eligible if self.region.places(state, [*self.library.clauses[k][0],
-                                                                     *self.library.clauses[k][1]]) <= region]
+        inside = [
+            k
+            for k in eligible
+            if self.region.places(state, [*self.library.clauses[k][0], *self.library.clauses[k][1]]) <= region
+        ]
         if inside:
             n = self.model.n_atoms
             lits = [[*self.library.clauses[k][0], *(n + i for i in self.library.clauses[k][1])] for k in inside]
             cost = self.hmax.literal_costs(self.bm.pack([state]), lits)[0]
             relaxed = {k: int(cost[ls].max()) for k, ls in zip(inside, lits)}
             inside.sort(key=lambda k: (relaxed[k], k))
-        return [ClauseGoal(*self.library.masks[k], self.library.text(k)) for k in inside[: self.max_clauses]], len(inside)
+        return [ClauseGoal(*self.library.masks[k], self.library.text(k)) for k in inside[: self.max_clauses]], len(
+            inside
+        )
 
     def clause_plans(self, state: int, task, myopic_path: list[int], plan=None) -> tuple[list, int, int, bool]:
         """[(clause text, plan)] of the augmented candidates, how many were dropped, how many clauses
@@ -333,9 +428,14 @@ class GNNNativePlanner(Planner):
         clauses, proposed = self.proposed(state, myopic_path, plan)
         if not clauses:
             return [], 0, proposed, True
-        joint = optimal_plans(self.bm, state, [JointGoal(task, c.bindings[0].pos, c.bindings[0].neg) for c in clauses],
-                              time_limit=self.time_limit, heuristic=JOINT_HEURISTIC,      # one A* for all of them
-                              prefer=lambda i, plan: self._in_full(state, plan, task, clauses[i]))
+        joint = optimal_plans(
+            self.bm,
+            state,
+            [JointGoal(task, c.bindings[0].pos, c.bindings[0].neg) for c in clauses],
+            time_limit=self.time_limit,
+            heuristic=JOINT_HEURISTIC,  # one A* for all of them
+            prefer=lambda i, plan: self._in_full(state, plan, task, clauses[i]),
+        )
         out, dropped, complete = [], 0, all(r.complete for r in joint)
         for clause, r in zip(clauses, joint):
             plan = r.plan
@@ -397,10 +497,19 @@ class GNNNativePlanner(Planner):
         ends = [task.consume(self._path(state, p)[-1]) for p in plans]
         est = np.asarray(self.estimate(ends), dtype=float)
         best = select(costs, est)
-        info = {"status": "solved", "candidates": len(plans), "dropped": dropped, "in_region": in_region, "chosen": names[best],
-                "c_myo": costs[0], "cost": costs[best], "score": round(float(costs[best] + est[best]), 3),
-                "myopic_score": round(float(costs[0] + est[0]), 3),
-                "c_ap_hat": [round(float(e), 3) for e in est], "candidate_costs": costs}
+        info = {
+            "status": "solved",
+            "candidates": len(plans),
+            "dropped": dropped,
+            "in_region": in_region,
+            "chosen": names[best],
+            "c_myo": costs[0],
+            "cost": costs[best],
+            "score": round(float(costs[best] + est[best]), 3),
+            "myopic_score": round(float(costs[0] + est[0]), 3),
+            "c_ap_hat": [round(float(e), 3) for e in est],
+            "candidate_costs": costs,
+        }
         if self.exact_labels:
             if self._labeller is None:
                 from oracles.labelling import Labeller

@@ -1,4 +1,5 @@
 """The greedy deployment of a learned Q (the thesis's Myopic / Anticipatory RL (greedy) rows): argmax_a Q(s, τ, a)."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -13,9 +14,11 @@ def checkpoint_config(path) -> dict:
 
     payload = read_checkpoint(path)
     cfg = payload.get("config", {})
-    return {"checkpoint": str(path),
-            **{k: payload[k] for k in ("step", "eval") if k in payload},
-            **{k: cfg[k] for k in ("horizon", "seed", "gamma", "goal_reward") if k in cfg}}
+    return {
+        "checkpoint": str(path),
+        **{k: payload[k] for k in ("step", "eval") if k in payload},
+        **{k: cfg[k] for k in ("horizon", "seed", "gamma", "goal_reward") if k in cfg},
+    }
 
 
 def checkpoint_run_name(agent: str, checkpoint, prefix: str = "rl-") -> str:
@@ -36,7 +39,7 @@ class GreedyValuePolicy(Policy):
     @classmethod
     def from_args(cls, args, model=None) -> "GreedyValuePolicy":
         agent = cls(args.checkpoint)
-        if model is not None:         # a checkpoint of another layout fails before any task is played
+        if model is not None:  # a checkpoint of another layout fails before any task is played
             agent.start(model, None)
         return agent
 

@@ -22,6 +22,7 @@ A reference planner other than the default myopic oracle (`--reference-agent
 which knows every agent; learning/ may not import it) and handed to `from_args`;
 its options default to the agent's `reference_defaults`.
 """
+
 from __future__ import annotations
 
 import sys
@@ -57,23 +58,27 @@ def default_beta_warning(model) -> None:
     if key in _warned:
         return
     _warned.add(key)
-    print(f"warning: {model.files['config']}: no [search] beta for layout {model.layout}: beta = 1.0, so the "
-          "value-guided search plays exactly the myopic plan (set [search] beta, or pass --beta)", file=sys.stderr)
+    print(
+        f"warning: {model.files['config']}: no [search] beta for layout {model.layout}: beta = 1.0, so the "
+        "value-guided search plays exactly the myopic plan (set [search] beta, or pass --beta)",
+        file=sys.stderr,
+    )
 
 
 class ValueGuidedPlanner(Planner):
     """A learned value deployed through the cost-bounded Bellman–Novelty search."""
 
     name = "rl-guided"
-    value_kind = "q-network"          # the kind of a bare checkpoint path (--checkpoint PATH)
-    checkpoint_prefix = "rl-"         # dropped from the checkpoint's name in the default results name
+    value_kind = "q-network"  # the kind of a bare checkpoint path (--checkpoint PATH)
+    checkpoint_prefix = "rl-"  # dropped from the checkpoint's name in the default results name
     keys = ("c_myo", "terminals", "eligible", "expansions", "source", "v_ap", "cost", "depth")
 
     @classmethod
     def options(cls, p) -> None:
         which = p.add_mutually_exclusive_group(required=True)
-        which.add_argument("--checkpoint", help="Q-network checkpoint whose value guides the search "
-                                                "(short for --value q-network:PATH)")
+        which.add_argument(
+            "--checkpoint", help="Q-network checkpoint whose value guides the search (short for --value q-network:PATH)"
+        )
         which.add_argument("--value", help=HELP)
         cls.search_options(p)
 
@@ -82,15 +87,25 @@ class ValueGuidedPlanner(Planner):
         """The search's own flags, shared by every value-guided agent."""
         p.add_argument("--beta", type=float, default=None, help="cost slack β ≥ 1 (default: domain.toml [search])")
         p.add_argument("--budget", type=int, default=None, help="expansions per task (default: domain.toml [search])")
-        p.add_argument("--depth-cap", type=int, default=None, help="depth of open nodes (default: domain.toml [search])")
-        p.add_argument("--reference", default="internal", choices=PLANNERS,
-                       help="planner of the myopic reference plan (default: %(default)s, exact)")
-        p.add_argument("--time-limit", type=float, default=60.0,
-                       help="reference planner seconds per task (default: %(default)s)")
-        p.add_argument("--reference-agent", default=REFERENCE_AGENT,
-                       help="the registered planner that gives the reference plan, with its own options as one "
-                            "argument, e.g. 'clairvoyant --K 2'; its --planner and --time-limit default to "
-                            "--reference and --time-limit (default: %(default)s)")
+        p.add_argument(
+            "--depth-cap", type=int, default=None, help="depth of open nodes (default: domain.toml [search])"
+        )
+        p.add_argument(
+            "--reference",
+            default="internal",
+            choices=PLANNERS,
+            help="planner of the myopic reference plan (default: %(default)s, exact)",
+        )
+        p.add_argument(
+            "--time-limit", type=float, default=60.0, help="reference planner seconds per task (default: %(default)s)"
+        )
+        p.add_argument(
+            "--reference-agent",
+            default=REFERENCE_AGENT,
+            help="the registered planner that gives the reference plan, with its own options as one "
+            "argument, e.g. 'clairvoyant --K 2'; its --planner and --time-limit default to "
+            "--reference and --time-limit (default: %(default)s)",
+        )
 
     @classmethod
     def reference_defaults(cls, args) -> dict:
@@ -102,11 +117,28 @@ class ValueGuidedPlanner(Planner):
     def from_args(cls, args, model, reference_planner=None) -> "ValueGuidedPlanner":
         """`reference_planner`: the planner `args.reference_agent` names, built by the agent registry
         (`experiments.registry.build`); None for the default one, built here."""
-        return cls(model, args.value or args.checkpoint, args.beta, args.budget, args.depth_cap, args.reference,
-                   args.time_limit, default_reference(args, reference_planner))
+        return cls(
+            model,
+            args.value or args.checkpoint,
+            args.beta,
+            args.budget,
+            args.depth_cap,
+            args.reference,
+            args.time_limit,
+            default_reference(args, reference_planner),
+        )
 
-    def __init__(self, model, value, beta=None, budget=None, depth_cap=None, reference="internal",
-                 time_limit=60.0, reference_planner=None):
+    def __init__(
+        self,
+        model,
+        value,
+        beta=None,
+        budget=None,
+        depth_cap=None,
+        reference="internal",
+        time_limit=60.0,
+        reference_planner=None,
+    ):
         """`value`: KIND:PATH, KIND, or a checkpoint PATH of `value_kind` (`learning.values`).
         `reference_planner`: the planner of the reference plan (default: the myopic oracle with the
         `reference` planner and `time_limit`)."""
@@ -123,9 +155,13 @@ class ValueGuidedPlanner(Planner):
         self.model, self.value_name = model, str(value)
         self.reference = reference_planner if reference_planner is not None else MyopicOracle(reference, time_limit)
         self.value = load_value(self.value_name, model, self.value_kind)
-        self.config = {**record(self.value_name, self.value_kind),
-                       "beta": self.beta, "budget": self.budget, "depth_cap": self.depth_cap,
-                       "reference": reference_record(self.reference)}
+        self.config = {
+            **record(self.value_name, self.value_kind),
+            "beta": self.beta,
+            "budget": self.budget,
+            "depth_cap": self.depth_cap,
+            "reference": reference_record(self.reference),
+        }
         name = self.value_run_name()
         if (self.beta, self.budget, self.depth_cap) != (d.get("beta"), d.get("budget"), d.get("depth_cap")):
             name += f"-beta{self.beta:g}-budget{self.budget}-depth{self.depth_cap}"
@@ -146,28 +182,43 @@ class ValueGuidedPlanner(Planner):
 
     def plan(self, state: int, task, upcoming: list) -> Reply:
         ref = self.reference.plan(state, task, upcoming)
-        r = bellman_novelty_search(self.model, state, task, self.value, budget=self.budget, beta=self.beta,
-                                   depth_cap=self.depth_cap, reference_plan=ref.plan)
+        r = bellman_novelty_search(
+            self.model,
+            state,
+            task,
+            self.value,
+            budget=self.budget,
+            beta=self.beta,
+            depth_cap=self.depth_cap,
+            reference_plan=ref.plan,
+        )
         stats = asdict(r.stats)
-        info = {"status": "solved" if r.plan is not None else "no-eligible-terminal",
-                "reference_status": ref.info.get("status"),
-                **{k: stats[k] for k in self.keys}, "search_seconds": round(stats["seconds"], 4)}
+        info = {
+            "status": "solved" if r.plan is not None else "no-eligible-terminal",
+            "reference_status": ref.info.get("status"),
+            **{k: stats[k] for k in self.keys},
+            "search_seconds": round(stats["seconds"], 4),
+        }
         return Reply(r.plan, info)
 
 
 REFERENCE_AGENT = "myopic-oracle"
 """The default --reference-agent: the myopic oracle, with --reference's planner and --time-limit."""
 
-NOTES = {"internal": "exact optimal: C_myo is the true myopic cost (the authors' was LAMA)",
-         "fast-downward": "Fast Downward blind A*, optimal within its time limit"}
+NOTES = {
+    "internal": "exact optimal: C_myo is the true myopic cost (the authors' was LAMA)",
+    "fast-downward": "Fast Downward blind A*, optimal within its time limit",
+}
 
 
 def default_reference(args, reference_planner):
     """The reference planner handed to `from_args`; None (the myopic oracle of `args`, built in
     __init__) only where `args.reference_agent` names the default one."""
     if reference_planner is None and args.reference_agent != REFERENCE_AGENT:
-        raise DomainError("--reference-agent", f"'{args.reference_agent}' is built by the agent registry "
-                                               f"(experiments.registry.build), not here")
+        raise DomainError(
+            "--reference-agent",
+            f"'{args.reference_agent}' is built by the agent registry (experiments.registry.build), not here",
+        )
     return reference_planner
 
 
@@ -205,5 +256,13 @@ class GNNGuidedPlanner(ValueGuidedPlanner):
 
     @classmethod
     def from_args(cls, args, model, reference_planner=None) -> "GNNGuidedPlanner":
-        return cls(model, args.value or args.model, args.beta, args.budget, args.depth_cap, args.reference,
-                   args.time_limit, default_reference(args, reference_planner))
+        return cls(
+            model,
+            args.value or args.model,
+            args.beta,
+            args.budget,
+            args.depth_cap,
+            args.reference,
+            args.time_limit,
+            default_reference(args, reference_planner),
+        )

@@ -17,6 +17,7 @@ On the validation states of the model's own training run (the seeded 80/20 split
 
 Times are this process's CPU time with one torch thread.
 """
+
 from __future__ import annotations
 
 import platform
@@ -66,7 +67,7 @@ def bench(model_path: str, data: str, domain: str, batch: int, repeats: int, n_e
         raise DomainError(meta_path, "not a gnn_dataset's metadata (layout, n, atoms and c_ap expected)")
     model = compile_domain(domain, meta["layout"])
     check_made_for(meta_path, meta, model, "dataset")
-    value = GNNValue(model_path, model, encoder)            # a model of another layout stops here
+    value = GNNValue(model_path, model, encoder)  # a model of another layout stops here
     cfg = value.payload.get("config", {})
     _, val = split(meta["n"], int(cfg.get("seed", 0)), float(cfg.get("val_fraction", 0.2)))
     states = [model.state_from_atoms(meta["atoms"][i]) for i in val]
@@ -76,12 +77,15 @@ def bench(model_path: str, data: str, domain: str, batch: int, repeats: int, n_e
     # accuracy on the whole validation split: one pass, fresh cache
     est = value.c_ap(states)
     err = np.abs(est - exact)[ok]
-    accuracy = {"states": int(ok.sum()), "mae": round(float(err.mean()), 2),
-                "median_abs_error": round(float(np.median(err)), 2),
-                "exact_mean": round(float(exact[ok].mean()), 2),
-                "spearman": round(float(stats.spearmanr(est[ok], exact[ok])[0]), 4),
-                "kendall": round(float(stats.kendalltau(est[ok], exact[ok])[0]), 4),
-                "pair_agreement": round(pair_agreement(est[ok], exact[ok]), 4)}
+    accuracy = {
+        "states": int(ok.sum()),
+        "mae": round(float(err.mean()), 2),
+        "median_abs_error": round(float(np.median(err)), 2),
+        "exact_mean": round(float(exact[ok].mean()), 2),
+        "spearman": round(float(stats.spearmanr(est[ok], exact[ok])[0]), 4),
+        "kendall": round(float(stats.kendalltau(est[ok], exact[ok])[0]), 4),
+        "pair_agreement": round(pair_agreement(est[ok], exact[ok]), 4),
+    }
 
     # inference time of a batch, encoding and forward apart
     some = states[:batch]
@@ -99,35 +103,52 @@ def bench(model_path: str, data: str, domain: str, batch: int, repeats: int, n_e
         value._cache.clear()
         value.c_ap(some)
 
-    inference = {"batch": len(some), "encode_ms": round(1e3 * cpu(enc, repeats), 3),
-                 "forward_ms": round(1e3 * cpu(forward, repeats), 3),
-                 "module_forward_ms": round(1e3 * cpu(module_forward, repeats), 3),
-                 "c_ap_ms": round(1e3 * cpu(whole, repeats), 3)}
+    inference = {
+        "batch": len(some),
+        "encode_ms": round(1e3 * cpu(enc, repeats), 3),
+        "forward_ms": round(1e3 * cpu(forward, repeats), 3),
+        "module_forward_ms": round(1e3 * cpu(module_forward, repeats), 3),
+        "c_ap_ms": round(1e3 * cpu(whole, repeats), 3),
+    }
     inference["per_state_ms"] = round(inference["c_ap_ms"] / len(some), 4)
 
     labeller = Labeller(model)
-    labeller.label(states[0])                              # builds the pattern databases, outside the clock
+    labeller.label(states[0])  # builds the pattern databases, outside the clock
     t = time.process_time()
     labels = [labeller.label(s).c_ap for s in states[:n_exact]]
     exact_ms = 1e3 * (time.process_time() - t) / max(1, len(labels))
-    if not np.allclose(labels, exact[:len(labels)], equal_nan=True):
+    if not np.allclose(labels, exact[: len(labels)], equal_nan=True):
         raise DomainError(meta_path, "its labels are not the labelling oracle's C_AP of its states")
-    return {"model": model_summary(model_path), "data": data, "layout": model.layout, "domain": model.name,
-            "threads": torch.get_num_threads(), "machine": f"{platform.machine()} {platform.python_implementation()} "
-                                                           f"{platform.python_version()}",
-            "validation": accuracy, "inference": inference,
-            "exact": {"states": len(labels), "per_state_ms": round(exact_ms, 2),
-                      "ratio_to_gnn": round(exact_ms / inference["per_state_ms"], 1)}}
+    return {
+        "model": model_summary(model_path),
+        "data": data,
+        "layout": model.layout,
+        "domain": model.name,
+        "threads": torch.get_num_threads(),
+        "machine": f"{platform.machine()} {platform.python_implementation()} {platform.python_version()}",
+        "validation": accuracy,
+        "inference": inference,
+        "exact": {
+            "states": len(labels),
+            "per_state_ms": round(exact_ms, 2),
+            "ratio_to_gnn": round(exact_ms / inference["per_state_ms"], 1),
+        },
+    }
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0], layout=False,
-                   helps={"out": "results JSON (default: results/bench-gnn-<model name>.json)"})
+    p = cli.parser(
+        __doc__.splitlines()[0],
+        layout=False,
+        helps={"out": "results JSON (default: results/bench-gnn-<model name>.json)"},
+    )
     p.add_argument("--model", required=True, help="GNN checkpoint (learning.gnn_train's best.pt)")
     p.add_argument("--data", required=True, help="the learning.gnn_dataset folder it was trained on")
     p.add_argument("--batch", type=int, default=50, help="states per inference batch (default: %(default)s)")
     p.add_argument("--repeats", type=int, default=20, help="timed repeats (default: %(default)s)")
-    p.add_argument("--exact", type=int, default=50, help="states labelled exactly for the reference (default: %(default)s)")
+    p.add_argument(
+        "--exact", type=int, default=50, help="states labelled exactly for the reference (default: %(default)s)"
+    )
 
     def run():
         args = p.parse_args()
@@ -137,11 +158,13 @@ def main() -> None:
         r = bench(args.model, args.data, args.domain, args.batch, args.repeats, args.exact)
         write_json(out, {**r, "provenance": results_provenance({"model": args.model})})
         a, i, e = r["validation"], r["inference"], r["exact"]
-        print(f"{r['layout']} validation ({a['states']} states): MAE {a['mae']} (exact mean {a['exact_mean']}), "
-              f"Spearman {a['spearman']}, pairs ordered right {a['pair_agreement']:.1%} | batch of {i['batch']}: "
-              f"{i['c_ap_ms']} ms (encode {i['encode_ms']}, forward {i['forward_ms']}, the module's "
-              f"{i['module_forward_ms']}) | exact C_AP {e['per_state_ms']} ms/state, {e['ratio_to_gnn']}x the GNN's; "
-              f"wrote {out}")
+        print(
+            f"{r['layout']} validation ({a['states']} states): MAE {a['mae']} (exact mean {a['exact_mean']}), "
+            f"Spearman {a['spearman']}, pairs ordered right {a['pair_agreement']:.1%} | batch of {i['batch']}: "
+            f"{i['c_ap_ms']} ms (encode {i['encode_ms']}, forward {i['forward_ms']}, the module's "
+            f"{i['module_forward_ms']}) | exact C_AP {e['per_state_ms']} ms/state, {e['ratio_to_gnn']}x the GNN's; "
+            f"wrote {out}"
+        )
 
     cli.run(run)
 

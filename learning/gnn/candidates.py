@@ -35,6 +35,7 @@ the generator: `(in-region ?x)` (a location in the region, or an object whose lo
 
 A domain without the table keeps the clause-library candidates of `learning.agents.gnn_native` (see there).
 """
+
 from __future__ import annotations
 
 import heapq
@@ -71,7 +72,7 @@ def parse_formula(text: str):
     def expr():
         nonlocal pos
         if pos >= len(tokens) or tokens[pos] != "(":
-            raise ValueError(f"expected '(' at {' '.join(tokens[pos:pos + 3]) or 'the end'}")
+            raise ValueError(f"expected '(' at {' '.join(tokens[pos : pos + 3]) or 'the end'}")
         pos += 1
         if pos >= len(tokens) or tokens[pos] in "()":
             raise ValueError("expected a predicate or and/or/not after '('")
@@ -129,7 +130,9 @@ class Family:
             raise DomainError(model.files["config"], f"{where} is {entry!r}, not a table")
         unknown = [k for k in entry if k not in FAMILY_KEYS]
         if unknown:
-            raise DomainError(model.files["config"], f"{where} has unknown key '{unknown[0]}' (known: {', '.join(FAMILY_KEYS)})")
+            raise DomainError(
+                model.files["config"], f"{where} has unknown key '{unknown[0]}' (known: {', '.join(FAMILY_KEYS)})"
+            )
         for key in ("name", "roles", "goal"):
             if key not in entry:
                 raise DomainError(model.files["config"], f"{where} has no '{key}'")
@@ -144,10 +147,16 @@ class Family:
         for var, spec in roles.items():
             names = (spec,) if isinstance(spec, str) else tuple(spec) if isinstance(spec, list) else None
             if not var.startswith("?") or not names or not all(isinstance(t, str) for t in names):
-                raise DomainError(model.files["config"], f"{where} role {var!r} = {spec!r}: a role is '?var' = a type or a list of types")
+                raise DomainError(
+                    model.files["config"],
+                    f"{where} role {var!r} = {spec!r}: a role is '?var' = a type or a list of types",
+                )
             bad = [t for t in names if types is not None and t not in types]
             if bad:
-                raise DomainError(model.files["config"], f"{where} role {var} names type '{bad[0]}', which the domain does not declare")
+                raise DomainError(
+                    model.files["config"],
+                    f"{where} role {var} names type '{bad[0]}', which the domain does not declare",
+                )
             self.roles.append((var, names))
         self.vars = [v for v, _ in self.roles]
         try:
@@ -155,24 +164,39 @@ class Family:
             self.goal = _literals(parse_formula(entry["goal"]))
         except (ValueError, AttributeError, TypeError) as e:
             raise DomainError(model.files["config"], f"{where}: {e}") from None
-        for f, allowed in ((self.when, {**predicates, **GENERATOR_PREDICATES}), (("and", *(("atom", p, a) for _, p, a in self.goal)), predicates)):
+        for f, allowed in (
+            (self.when, {**predicates, **GENERATOR_PREDICATES}),
+            (("and", *(("atom", p, a) for _, p, a in self.goal)), predicates),
+        ):
             if f is None:
                 continue
             for _, pred, args in _atoms(f):
                 if pred not in allowed:
-                    raise DomainError(model.files["config"], f"{where} names predicate '{pred}', which is not "
-                                      + ("one of the domain's" if pred in GENERATOR_PREDICATES else "declared"))
+                    raise DomainError(
+                        model.files["config"],
+                        f"{where} names predicate '{pred}', which is not "
+                        + ("one of the domain's" if pred in GENERATOR_PREDICATES else "declared"),
+                    )
                 if allowed[pred] != len(args):
-                    raise DomainError(model.files["config"], f"{where}: ({pred} ...) takes {allowed[pred]} arguments, not {len(args)}")
+                    raise DomainError(
+                        model.files["config"], f"{where}: ({pred} ...) takes {allowed[pred]} arguments, not {len(args)}"
+                    )
                 for a in args:
                     if a.startswith("?") and a not in self.vars:
                         raise DomainError(model.files["config"], f"{where} uses {a}, which is not one of its roles")
                     if not a.startswith("?") and a not in model.objects:
-                        raise DomainError(model.files["config"], f"{where} names '{a}', which is not an object of layout {model.layout}")
+                        raise DomainError(
+                            model.files["config"],
+                            f"{where} names '{a}', which is not an object of layout {model.layout}",
+                        )
 
     def describe(self) -> dict:
-        return {"name": self.name, "roles": {v: list(t) for v, t in self.roles}, "when": _text(self.when) if self.when else None,
-                "goal": _text(("and", *((("atom", p, a) if s else ("not", ("atom", p, a))) for s, p, a in self.goal)))}
+        return {
+            "name": self.name,
+            "roles": {v: list(t) for v, t in self.roles},
+            "when": _text(self.when) if self.when else None,
+            "goal": _text(("and", *((("atom", p, a) if s else ("not", ("atom", p, a))) for s, p, a in self.goal))),
+        }
 
 
 def _text(f) -> str:
@@ -195,8 +219,11 @@ class Region:
         self.position = {i: a[1] for i, a in enumerate(model.atoms) if a[0] in position_predicates(model, locs)}
         held = agent_relations(model, locs)
         self.held = {i: a[1] for i, a in enumerate(model.atoms) if a[0] in held and len(a) == 2}
-        self.placed = {i: (a[1], a[2]) for i, a in enumerate(model.atoms)
-                       if len(a) == 3 and a[1] not in locs and (a[2] in locs or a[2] in model.objects)}
+        self.placed = {
+            i: (a[1], a[2])
+            for i, a in enumerate(model.atoms)
+            if len(a) == 3 and a[1] not in locs and (a[2] in locs or a[2] in model.objects)
+        }
         pos_mask = sum(1 << i for i in self.position)
         self.moves: dict[str, set] = {}
         for op in model.ops:
@@ -235,7 +262,7 @@ class Region:
         for i in atoms:
             for arg in self.model.atoms[i][1:]:
                 out.add(arg if arg in self.locations else self.where(state, arg))
-        out.discard(None)                  # an object that is nowhere now (the machine water, used up)
+        out.discard(None)  # an object that is nowhere now (the machine water, used up)
         return out
 
 
@@ -261,19 +288,26 @@ class FocusedCandidates:
         self.max_clauses = int(self.max_clauses)
         lang = model.source.problem.language if model.source is not None else None
         types = {s.name for s in lang.sorts} if lang is not None else None
-        predicates = ({str(p.name): p.arity for p in lang.predicates if isinstance(p.name, str)} if lang is not None
-                      else {a[0]: len(a) - 1 for a in [*model.atoms, *model.static_atoms]})
+        predicates = (
+            {str(p.name): p.arity for p in lang.predicates if isinstance(p.name, str)}
+            if lang is not None
+            else {a[0]: len(a) - 1 for a in [*model.atoms, *model.static_atoms]}
+        )
         nowhere = table.get("relevant_when_nowhere", [])
         if not isinstance(nowhere, list) or not all(isinstance(t, str) for t in nowhere):
             raise DomainError(cfg, f"[gnn.candidates] relevant_when_nowhere is {nowhere!r}, not a list of types")
         bad = [t for t in nowhere if types is not None and t not in types]
         if bad:
-            raise DomainError(cfg, f"[gnn.candidates] relevant_when_nowhere names type '{bad[0]}', which the domain does not declare")
+            raise DomainError(
+                cfg, f"[gnn.candidates] relevant_when_nowhere names type '{bad[0]}', which the domain does not declare"
+            )
         self.nowhere_types = list(nowhere)
         entries = table.get("clause", [])
         if not isinstance(entries, list) or not entries:
             raise DomainError(cfg, "[gnn.candidates] declares no [[gnn.candidates.clause]] family")
-        self.families = [Family(model, e, f"[[gnn.candidates.clause]] {k + 1}", predicates, types) for k, e in enumerate(entries)]
+        self.families = [
+            Family(model, e, f"[[gnn.candidates.clause]] {k + 1}", predicates, types) for k, e in enumerate(entries)
+        ]
         self.region_model = Region(model)
         self.locations = set(model.locations)
         if not self.locations:
@@ -392,7 +426,7 @@ class FocusedCandidates:
                     pos |= 1 << i
                 else:
                     neg |= 1 << i
-            elif (key in self.static) != positive:        # a static fact denied, or an atom never reached asked for
+            elif (key in self.static) != positive:  # a static fact denied, or an atom never reached asked for
                 return None
         if pos & neg:
             return None
@@ -417,7 +451,7 @@ class FocusedCandidates:
                     if goal is None or goal[0] in seen:
                         continue
                     text, pos, neg = goal
-                    if state & pos == pos and not state & neg:           # holds already
+                    if state & pos == pos and not state & neg:  # holds already
                         continue
                     seen.add(text)
                     out.append(Clause(text, fam.name, obj, pos, neg))
@@ -425,9 +459,15 @@ class FocusedCandidates:
 
     def describe(self) -> dict:
         """The generator as a results file's configuration records it."""
-        return {"kind": "focused", "source": "domain.toml [gnn.candidates]", "hops": self.hops,
-                "base_hop": self.base_hop, "max_clauses": self.max_clauses,
-                "relevant_when_nowhere": self.nowhere_types, "families": [f.describe() for f in self.families]}
+        return {
+            "kind": "focused",
+            "source": "domain.toml [gnn.candidates]",
+            "hops": self.hops,
+            "base_hop": self.base_hop,
+            "max_clauses": self.max_clauses,
+            "relevant_when_nowhere": self.nowhere_types,
+            "families": [f.describe() for f in self.families],
+        }
 
 
 def _bits(mask: int) -> list[int]:

@@ -50,6 +50,7 @@ caches inside the folder (the label checkpoint, the prepared streams' plans) rec
 the layout and the domain's identity, and those made from other content are started
 afresh.
 """
+
 from __future__ import annotations
 
 import json
@@ -70,8 +71,16 @@ from planning.domain.identity import identity, mismatch
 from planning.errors import DomainError
 
 CHECKPOINT_SECONDS = 10.0
-CONTENT_KEYS = ("n_states", "augmented", "n_prepared", "seed", "prepared_streams", "min_clause_cost",
-                "plan_time_limit", "label_time_limit")
+CONTENT_KEYS = (
+    "n_states",
+    "augmented",
+    "n_prepared",
+    "seed",
+    "prepared_streams",
+    "min_clause_cost",
+    "plan_time_limit",
+    "label_time_limit",
+)
 """The settings that change what a dataset holds (the workers and the exact search's heuristic do not)."""
 
 
@@ -81,16 +90,16 @@ class DatasetConfig:
 
     layout: str = "three-room"
     domain: str = cli.DEFAULT_DOMAIN
-    n_states: int = 2000            # faithful states
+    n_states: int = 2000  # faithful states
     augmented: bool = False
-    n_prepared: int | None = None   # prepared states added when augmented (default 3 x n_states: 8,000 in all)
-    seed: int = 0                   # seed of the myopic rollout; prepared stream i uses seed + 1 + i
-    workers: int = 2                # processes collecting prepared states and labelling
-    prepared_streams: int = 4       # independent prepared task streams (seeds seed + 1 ...), whatever the workers
-    heuristic: str = "pdb"          # of the labelling search (oracles.labelling.HEURISTICS)
-    label_time_limit: float | None = None   # seconds per label (None: exact, however long)
+    n_prepared: int | None = None  # prepared states added when augmented (default 3 x n_states: 8,000 in all)
+    seed: int = 0  # seed of the myopic rollout; prepared stream i uses seed + 1 + i
+    workers: int = 2  # processes collecting prepared states and labelling
+    prepared_streams: int = 4  # independent prepared task streams (seeds seed + 1 ...), whatever the workers
+    heuristic: str = "pdb"  # of the labelling search (oracles.labelling.HEURISTICS)
+    label_time_limit: float | None = None  # seconds per label (None: exact, however long)
     plan_time_limit: float = 120.0  # seconds per joint task + clause plan before falling back to the task alone
-    min_clause_cost: int = 200      # a clause must cost at least this much (h_max) to count as preparation
+    min_clause_cost: int = 200  # a clause must cost at least this much (h_max) to count as preparation
 
 
 # ---- states ------------------------------------------------------------------------------
@@ -108,8 +117,8 @@ class ClauseLibrary:
         keep = 0
         for i in world:
             keep |= 1 << i
-        undone = {}                             # literal -> does every action requiring it undo it?
-        cheapest = {}                           # atom -> cheapest cost of an action adding it
+        undone = {}  # literal -> does every action requiring it undo it?
+        cheapest = {}  # atom -> cheapest cost of an action adding it
         for op, a in zip(model.ops, model.op_action):
             for i in _bits(op.add | _cond_adds(op)):
                 cheapest[i] = min(cheapest.get(i, 1 << 62), model.action_cost[a])
@@ -124,7 +133,7 @@ class ClauseLibrary:
             if not gone or (positive and cheapest.get(i, 0) >= self.min_cost):
                 clauses.add(((i,), ()) if positive else ((), (i,)))
         for op in model.ops:
-            pos = [i for i in _bits(op.pos & keep) if not op.dele >> i & 1]     # left standing by the action
+            pos = [i for i in _bits(op.pos & keep) if not op.dele >> i & 1]  # left standing by the action
             for a in pos:
                 for b in pos:
                     ka, kb = model.atoms[a], model.atoms[b]
@@ -150,8 +159,11 @@ class ClauseLibrary:
         n = self.model.n_atoms
         goal = [[*self.clauses[k][0], *(n + i for i in self.clauses[k][1])] for k in false]
         cost = hmax.literal_costs(bm.pack([state]), goal)[0]
-        return [k for k, lits in zip(false, goal) if int(cost[lits].max()) >= min_cost
-                and int(cost[lits].max()) < np.iinfo(np.int32).max // 4]
+        return [
+            k
+            for k, lits in zip(false, goal)
+            if int(cost[lits].max()) >= min_cost and int(cost[lits].max()) < np.iinfo(np.int32).max // 4
+        ]
 
 
 # A task with a clause is planned with the larger of the pattern databases' estimate and LM-cut's. Neither is
@@ -176,8 +188,16 @@ class JointGoal:
         return any(state & o.pos == o.pos and not state & o.neg for o in self.bindings)
 
 
-def prepared_states(model, n: int, cfg: DatasetConfig, cache: Path, progress: bool = True, stream: int = 0,
-                    exclude=frozenset(), counter=None) -> list[int]:
+def prepared_states(
+    model,
+    n: int,
+    cfg: DatasetConfig,
+    cache: Path,
+    progress: bool = True,
+    stream: int = 0,
+    exclude=frozenset(),
+    counter=None,
+) -> list[int]:
     """n distinct states, none in `exclude`, along optimal plans for (task AND a preparatory clause)
     on the seeded task stream number `stream` (seed cfg.seed + 1 + stream).
 
@@ -195,8 +215,13 @@ def prepared_states(model, n: int, cfg: DatasetConfig, cache: Path, progress: bo
     library = ClauseLibrary(model, cfg.min_clause_cost)
     rng = np.random.default_rng(seed)
     task_stream = TaskStream(model, seed)
-    header = {"layout": model.layout, "seed": seed, **identity(model), "min_clause_cost": cfg.min_clause_cost,
-              "plan_time_limit": cfg.plan_time_limit}
+    header = {
+        "layout": model.layout,
+        "seed": seed,
+        **identity(model),
+        "min_clause_cost": cfg.min_clause_cost,
+        "plan_time_limit": cfg.plan_time_limit,
+    }
     done = cached_plans(cache, header, model)
     rows: list[dict] = []
     states: dict[int, None] = {}
@@ -218,7 +243,7 @@ def prepared_states(model, n: int, cfg: DatasetConfig, cache: Path, progress: bo
         if reset is not None:
             state = model.reset_state(reset)
             keep([state])
-        clause = int(rng.integers(1 << 30))         # drawn every task, so a replay draws the same
+        clause = int(rng.integers(1 << 30))  # drawn every task, so a replay draws the same
         if i < len(done):
             row = done[i]
             if row["task"] != task.name:
@@ -231,7 +256,7 @@ def prepared_states(model, n: int, cfg: DatasetConfig, cache: Path, progress: bo
             path.append(model.apply(path[-1], a))
         state = path[-1]
         if task.satisfied(state):
-            path.pop()                          # the goal state itself: no task starts there
+            path.pop()  # the goal state itself: no task starts there
             state = task.consume(state)
             path.append(state)
         keep(path)
@@ -255,9 +280,14 @@ def cached_plans(cache: Path, header: dict, model) -> list[dict]:
     try:
         saved = json.loads(cache.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise DomainError(cache, f"corrupt prepared-stream cache ({type(e).__name__}); delete it to plan again") from None
-    if not isinstance(saved, dict) or not isinstance(saved.get("tasks"), list) \
-            or not all(isinstance(r, dict) and isinstance(r.get("plan"), list) for r in saved["tasks"]):
+        raise DomainError(
+            cache, f"corrupt prepared-stream cache ({type(e).__name__}); delete it to plan again"
+        ) from None
+    if (
+        not isinstance(saved, dict)
+        or not isinstance(saved.get("tasks"), list)
+        or not all(isinstance(r, dict) and isinstance(r.get("plan"), list) for r in saved["tasks"])
+    ):
         raise DomainError(cache, "corrupt prepared-stream cache (no list of task rows); delete it to plan again")
     recorded = {k: saved[k] for k in header if k in saved and k not in ("domain_sha256", "domain_files")}
     if any(header[k] != v for k, v in recorded.items()) or mismatch(saved, model) is not None:
@@ -275,8 +305,9 @@ def _plan_prepared(model, bm, hmax, library, state, task, draw, cfg, optimal_pla
     if eligible:
         k = eligible[draw % len(eligible)]
         pos, neg = library.masks[k]
-        r = optimal_plan(bm, state, JointGoal(task, pos, neg), time_limit=cfg.plan_time_limit,
-                         heuristic=JOINT_HEURISTIC)
+        r = optimal_plan(
+            bm, state, JointGoal(task, pos, neg), time_limit=cfg.plan_time_limit, heuristic=JOINT_HEURISTIC
+        )
         if r.plan is not None:
             plan, row["clause"] = r.plan, library.text(k)
     if plan is None:
@@ -307,8 +338,7 @@ def _init_worker(cfg: DatasetConfig, counter) -> None:
     from planning.domain.compiler import compile_domain
 
     model = compile_domain(cfg.domain, cfg.layout)
-    _WORKER.update(cfg=cfg, model=model, counter=counter,
-                   labeller=Labeller(model, cfg.heuristic, cfg.label_time_limit))
+    _WORKER.update(cfg=cfg, model=model, counter=counter, labeller=Labeller(model, cfg.heuristic, cfg.label_time_limit))
 
 
 def _label_chunk(states: list[int]) -> list[tuple]:
@@ -320,8 +350,16 @@ def _label_chunk(states: list[int]) -> list[tuple]:
 
 
 def _collect_stream(stream: int, n: int, cache: Path, exclude: frozenset) -> list[int]:
-    return prepared_states(_WORKER["model"], n, _WORKER["cfg"], cache, progress=False, stream=stream,
-                           exclude=exclude, counter=_WORKER["counter"])
+    return prepared_states(
+        _WORKER["model"],
+        n,
+        _WORKER["cfg"],
+        cache,
+        progress=False,
+        stream=stream,
+        exclude=exclude,
+        counter=_WORKER["counter"],
+    )
 
 
 class _Done:
@@ -347,7 +385,7 @@ class _InProcess:
         cfg, counter = self.args
         if _WORKER.get("cfg") != cfg:
             _init_worker(cfg, counter)
-        _WORKER["counter"] = counter            # this build's progress counter, not an earlier one's
+        _WORKER["counter"] = counter  # this build's progress counter, not an earlier one's
         return _Done(fn(*args))
 
     def terminate(self) -> None:
@@ -368,10 +406,10 @@ class Workers:
         if checkpoint.is_file():
             labels, saved = read_labels(checkpoint)
             if saved.get("layout") in (None, model.layout) and mismatch(saved, model) is None:
-                self.labels.update(labels)          # else labels of other states: labelled again
+                self.labels.update(labels)  # else labels of other states: labelled again
         self.counter = mp.get_context("fork").Value("q", 0)
         self._pool = None
-        self._pending: list = []                # label jobs not yet collected
+        self._pending: list = []  # label jobs not yet collected
         self._queued: set[int] = set()
         self._bar = tqdm(total=0, desc="labelling C_AP", unit="state", disable=not progress)
         self._last_save = time.monotonic()
@@ -389,8 +427,11 @@ class Workers:
     def pool(self):
         if self._pool is None:
             args = (self.cfg, self.counter)
-            self._pool = (_InProcess(*args) if self.cfg.workers <= 1 else
-                          mp.get_context("fork").Pool(self.cfg.workers, initializer=_init_worker, initargs=args))
+            self._pool = (
+                _InProcess(*args)
+                if self.cfg.workers <= 1
+                else mp.get_context("fork").Pool(self.cfg.workers, initializer=_init_worker, initargs=args)
+            )
         return self._pool
 
     def save(self) -> None:
@@ -406,7 +447,7 @@ class Workers:
         self._bar.update(len(new) - len(todo))
         chunk = max(1, min(25, len(todo) // (4 * max(1, self.cfg.workers))))
         for lo in range(0, len(todo), chunk):
-            self._pending.append(self.pool.apply_async(_label_chunk, (todo[lo: lo + chunk],)))
+            self._pending.append(self.pool.apply_async(_label_chunk, (todo[lo : lo + chunk],)))
         self.poll()
 
     def collect(self, stream: int, n: int, cache: Path, exclude: frozenset):
@@ -415,7 +456,7 @@ class Workers:
 
     def poll(self) -> None:
         """Take the finished label jobs."""
-        ready = [j.ready() for j in self._pending]          # asked once: a job may finish meanwhile
+        ready = [j.ready() for j in self._pending]  # asked once: a job may finish meanwhile
         done = [j for j, r in zip(self._pending, ready) if r]
         self._pending = [j for j, r in zip(self._pending, ready) if not r]
         for job in done:
@@ -441,19 +482,26 @@ def read_labels(path: Path) -> tuple[dict, dict]:
     try:
         saved = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise DomainError(path, f"corrupt checkpoint: {getattr(e, 'msg', type(e).__name__)}; delete it to label "
-                                "again") from None
+        raise DomainError(
+            path, f"corrupt checkpoint: {getattr(e, 'msg', type(e).__name__)}; delete it to label again"
+        ) from None
     if not isinstance(saved, dict) or not isinstance(saved.get("labels"), dict):
-        raise DomainError(path, f"corrupt checkpoint: {type(saved).__name__} {_short(saved)}, not a JSON object "
-                                "with a labels table; delete it to label again")
+        raise DomainError(
+            path,
+            f"corrupt checkpoint: {type(saved).__name__} {_short(saved)}, not a JSON object "
+            "with a labels table; delete it to label again",
+        )
     labels = {}
     for s, v in saved["labels"].items():
         try:
             value, costs, seconds = v
             labels[int(s)] = (float(value), [int(c) for c in costs], float(seconds))
         except (TypeError, ValueError):
-            raise DomainError(path, f"corrupt checkpoint: the label of state {s} is {_short(v)}, not [C_AP, "
-                                    "costs, seconds]; delete it to label again") from None
+            raise DomainError(
+                path,
+                f"corrupt checkpoint: the label of state {s} is {_short(v)}, not [C_AP, "
+                "costs, seconds]; delete it to label again",
+            ) from None
     return labels, saved
 
 
@@ -462,8 +510,9 @@ def _short(value) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
-def label_states(states: list[int], cfg: DatasetConfig, checkpoint: Path, known: dict | None = None,
-                 progress: bool = True) -> dict:
+def label_states(
+    states: list[int], cfg: DatasetConfig, checkpoint: Path, known: dict | None = None, progress: bool = True
+) -> dict:
     """{state: (c_ap, costs, seconds)} for every state, in cfg.workers processes, checkpointed atomically."""
     with Workers(cfg, checkpoint, known, progress) as work:
         work.label(states)
@@ -529,8 +578,11 @@ def read_meta(root) -> dict:
     try:
         meta = json.loads(path.read_text())
     except (UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise DomainError(path, f"corrupt dataset metadata ({getattr(e, 'msg', 'not text')}: cut short or edited "
-                                "by hand); build the dataset again (learning.gnn_dataset)") from None
+        raise DomainError(
+            path,
+            f"corrupt dataset metadata ({getattr(e, 'msg', 'not text')}: cut short or edited "
+            "by hand); build the dataset again (learning.gnn_dataset)",
+        ) from None
     except OSError as e:
         raise DomainError(path, f"cannot read: {e.strerror}") from None
     if not isinstance(meta, dict):
@@ -558,20 +610,30 @@ def save_dataset(root, model, states: list[int], labels: dict, meta: dict, encod
     data = []
     for i, s in enumerate(states):
         c_ap, costs, _ = labels[s]
-        data.append(encoder.encode(s, y=torch.tensor([c_ap], dtype=torch.float32),
-                                   costs=torch.tensor([costs], dtype=torch.int64), index=i))
+        data.append(
+            encoder.encode(
+                s, y=torch.tensor([c_ap], dtype=torch.float32), costs=torch.tensor([costs], dtype=torch.int64), index=i
+            )
+        )
     out = root / "processed" / "data.pt"
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(".data.pt.tmp")
     InMemoryDataset.save(data, str(tmp))
     os.replace(tmp, out)
-    meta = {**meta, **identity(model), "layout": model.layout, "n": len(states),
-            "tasks": [{"task": t.name, "probability": t.probability} for t in model.tasks],
-            "node_names": encoder.node_names, "node_types": encoder.node_types,
-            "feature_names": encoder.feature_names, "relation_names": encoder.relation_names,
-            "c_ap": [labels[s][0] for s in states],
-            "label_seconds": [round(labels[s][2], 4) for s in states],
-            "atoms": [[atom_text(k) for k in model.true_atoms(s)] for s in states]}
+    meta = {
+        **meta,
+        **identity(model),
+        "layout": model.layout,
+        "n": len(states),
+        "tasks": [{"task": t.name, "probability": t.probability} for t in model.tasks],
+        "node_names": encoder.node_names,
+        "node_types": encoder.node_types,
+        "feature_names": encoder.feature_names,
+        "relation_names": encoder.relation_names,
+        "c_ap": [labels[s][0] for s in states],
+        "label_seconds": [round(labels[s][2], 4) for s in states],
+        "atoms": [[atom_text(k) for k in model.true_atoms(s)] for s in states],
+    }
     write_json(root / "meta.json", meta)
     return root
 
@@ -592,12 +654,16 @@ def known_labels(folders, model=None) -> dict:
             made = saved if "layout" in saved else (read_meta(folder) if (Path(folder) / "meta.json").is_file() else {})
             where = path if "layout" in saved else Path(folder) / "meta.json"
             if made.get("domain") not in (None, model.name) or made.get("layout") not in (None, model.layout):
-                raise DomainError(where, f"labels of {made.get('domain')} {made.get('layout')}, not of {model.name} "
-                                         f"{model.layout}; leave out --reuse-labels {folder}")
+                raise DomainError(
+                    where,
+                    f"labels of {made.get('domain')} {made.get('layout')}, not of {model.name} "
+                    f"{model.layout}; leave out --reuse-labels {folder}",
+                )
             diff = mismatch(made, model)
             if diff is not None:
-                raise DomainError(where, f"labels made from {diff}: not this content's C_AP; leave out "
-                                         f"--reuse-labels {folder}")
+                raise DomainError(
+                    where, f"labels made from {diff}: not this content's C_AP; leave out --reuse-labels {folder}"
+                )
         known.update(labels)
     return known
 
@@ -664,7 +730,7 @@ def forget_finished(out: Path, model) -> None:
         try:
             saved = read_labels(checkpoint)[1]
         except DomainError:
-            saved = {"layout": None}            # corrupt: Workers says so
+            saved = {"layout": None}  # corrupt: Workers says so
         other = (meta.get("domain"), meta.get("layout")) != (model.name, model.layout) or mismatch(meta, model)
         if "layout" not in saved and other:
             checkpoint.unlink()
@@ -686,9 +752,13 @@ def _build(cfg: DatasetConfig, out: Path, model, progress: bool, reuse) -> dict:
         work.wait()
         labels = {s: work.labels[s] for s in states}
     t_all = time.perf_counter() - t0
-    meta = {"config": asdict(cfg), "kinds": kinds, "seconds_faithful_states": round(t_states, 1),
-            "seconds_collecting_and_labelling": round(t_all - t_states, 1),
-            "label_cpu_seconds": round(sum(v[2] for v in labels.values()), 1)}
+    meta = {
+        "config": asdict(cfg),
+        "kinds": kinds,
+        "seconds_faithful_states": round(t_states, 1),
+        "seconds_collecting_and_labelling": round(t_all - t_states, 1),
+        "label_cpu_seconds": round(sum(v[2] for v in labels.values()), 1),
+    }
     save_dataset(out, model, states, labels, meta)
     return meta
 
@@ -720,4 +790,4 @@ def _prepared(work: Workers, cfg: DatasetConfig, n: int, faithful: list[int], ou
             bar.close()
             return states[:n]
         short = n - len(states)
-        quota = [q + short // k + 1 for q in quota]            # streams replay their cached plans first
+        quota = [q + short // k + 1 for q in quota]  # streams replay their cached plans first

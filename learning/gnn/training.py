@@ -17,6 +17,7 @@ checkpoint holds plain types only and loads with weights_only=True. The batch
 order of epoch e is drawn from (seed, e), so a resumed run is the run that was
 not interrupted.
 """
+
 from __future__ import annotations
 
 import json
@@ -42,16 +43,26 @@ class TrainConfig:
     epochs: int = 40
     lr: float = 0.01
     batch_size: int = 8
-    lr_step: int = 1000             # batches between halvings
+    lr_step: int = 1000  # batches between halvings
     lr_decay: float = 0.5
     val_fraction: float = 0.2
     width: int = 64
     layers: int = 4
-    edge_features: bool = False     # the thesis's layers take none; ours may use the relation one-hot
+    edge_features: bool = False  # the thesis's layers take none; ours may use the relation one-hot
 
 
-RESUME_KEYS = ("data", "seed", "lr", "batch_size", "lr_step", "lr_decay", "val_fraction", "width", "layers",
-               "edge_features")
+RESUME_KEYS = (
+    "data",
+    "seed",
+    "lr",
+    "batch_size",
+    "lr_step",
+    "lr_decay",
+    "val_fraction",
+    "width",
+    "layers",
+    "edge_features",
+)
 """A last.pt is resumed only by a run that agrees on these (the number of epochs may grow)."""
 
 
@@ -88,12 +99,20 @@ IDENTITY_KEYS = ("domain", "domain_sha256", "domain_files")
 
 
 def _payload(net, cfg, meta, epoch, val_l1, train_idx, val_idx) -> dict:
-    return {"model": net.state_dict(), "dims": dict(net.dims), "config": asdict(cfg), "epoch": epoch,
-            "val_l1": val_l1, **{k: meta[k] for k in IDENTITY_KEYS if meta.get(k) is not None},
-            "layout": meta.get("layout"),
-            "feature_names": list(meta.get("feature_names", [])),
-            "relation_names": list(meta.get("relation_names", [])),
-            "n_train": int(len(train_idx)), "n_val": int(len(val_idx)), "parameters": parameter_count(net)}
+    return {
+        "model": net.state_dict(),
+        "dims": dict(net.dims),
+        "config": asdict(cfg),
+        "epoch": epoch,
+        "val_l1": val_l1,
+        **{k: meta[k] for k in IDENTITY_KEYS if meta.get(k) is not None},
+        "layout": meta.get("layout"),
+        "feature_names": list(meta.get("feature_names", [])),
+        "relation_names": list(meta.get("relation_names", [])),
+        "n_train": int(len(train_idx)),
+        "n_val": int(len(val_idx)),
+        "parameters": parameter_count(net),
+    }
 
 
 def train(cfg: TrainConfig, out, progress: bool = True, dataset=None) -> dict:
@@ -131,12 +150,17 @@ def train(cfg: TrainConfig, out, progress: bool = True, dataset=None) -> dict:
         opt.load_state_dict(saved["optimizer"])
         sched.load_state_dict(saved["scheduler"])
         history, best_val, start = list(saved["history"]), float(saved["best_val"]), int(saved["epoch"])
-    bar = tqdm(total=cfg.epochs, initial=min(start, cfg.epochs), desc=f"gnn seed {cfg.seed}", unit="epoch",
-               disable=not progress)
+    bar = tqdm(
+        total=cfg.epochs,
+        initial=min(start, cfg.epochs),
+        desc=f"gnn seed {cfg.seed}",
+        unit="epoch",
+        disable=not progress,
+    )
     for epoch in range(start, cfg.epochs):
         t0 = time.perf_counter()
         net.train()
-        gen = torch.Generator().manual_seed(cfg.seed * 100_003 + epoch)       # the epoch's batch order
+        gen = torch.Generator().manual_seed(cfg.seed * 100_003 + epoch)  # the epoch's batch order
         total, n = 0.0, 0
         for b in DataLoader(train_set, batch_size=cfg.batch_size, shuffle=True, generator=gen):
             opt.zero_grad()
@@ -148,27 +172,47 @@ def train(cfg: TrainConfig, out, progress: bool = True, dataset=None) -> dict:
             n += b.num_graphs
         val_l1 = evaluate_l1(net, val_set)
         seconds = time.perf_counter() - t0
-        row = {"epoch": epoch + 1, "train_l1": round(total / max(n, 1), 4), "val_l1": round(val_l1, 4),
-               "lr": opt.param_groups[0]["lr"], "batches": int(sched.last_epoch), "seconds": round(seconds, 3)}
+        row = {
+            "epoch": epoch + 1,
+            "train_l1": round(total / max(n, 1), 4),
+            "val_l1": round(val_l1, 4),
+            "lr": opt.param_groups[0]["lr"],
+            "batches": int(sched.last_epoch),
+            "seconds": round(seconds, 3),
+        }
         if val_l1 < best_val:
             best_val = val_l1
             row["best"] = True
             save_gnn_checkpoint(out / "best.pt", _payload(net, cfg, meta, epoch + 1, val_l1, train_idx, val_idx))
         history.append(row)
-        save_gnn_checkpoint(last, {**_payload(net, cfg, meta, epoch + 1, val_l1, train_idx, val_idx),
-                                   "optimizer": opt.state_dict(), "scheduler": sched.state_dict(),
-                                   "history": history, "best_val": best_val})
+        save_gnn_checkpoint(
+            last,
+            {
+                **_payload(net, cfg, meta, epoch + 1, val_l1, train_idx, val_idx),
+                "optimizer": opt.state_dict(),
+                "scheduler": sched.state_dict(),
+                "history": history,
+                "best_val": best_val,
+            },
+        )
         write_text(out / "metrics.jsonl", "".join(json.dumps(r) + "\n" for r in history))
         bar.set_postfix(train_l1=f"{row['train_l1']:.1f}", val_l1=f"{val_l1:.1f}", best=f"{best_val:.1f}")
         bar.update(1)
     bar.close()
     seconds = [r["seconds"] for r in history]
-    summary = {"config": asdict(cfg), "epochs": len(history), "best_val_l1": best_val,
-               "best_epoch": next((r["epoch"] for r in history if r["val_l1"] == round(best_val, 4)), None),
-               "final_val_l1": history[-1]["val_l1"] if history else None,
-               "seconds_per_epoch": round(float(np.mean(seconds)), 3) if seconds else None,
-               "n_train": int(len(train_idx)), "n_val": int(len(val_idx)), "parameters": parameter_count(net),
-               "dataset": {k: meta.get(k) for k in ("domain", "layout", "n", "domain_sha256")}}
+    summary = {
+        "config": asdict(cfg),
+        "epochs": len(history),
+        "best_val_l1": best_val,
+        "best_epoch": next((r["epoch"] for r in history if r["val_l1"] == round(best_val, 4)), None),
+        "final_val_l1": history[-1]["val_l1"] if history else None,
+        "seconds_per_epoch": round(float(np.mean(seconds)), 3) if seconds else None,
+        "n_train": int(len(train_idx)),
+        "n_val": int(len(val_idx)),
+        "parameters": parameter_count(net),
+        "dataset": {k: meta.get(k) for k in ("domain", "layout", "n", "domain_sha256")},
+    }
     from planning.atomic import write_json
+
     write_json(out / "summary.json", summary)
     return summary

@@ -30,6 +30,7 @@ wall time, on a shared machine it is what the work costs rather than how long it
 for a core. Absolute rates still depend on what else runs (caches, memory bandwidth);
 ratios measured in one process are the dependable figures.
 """
+
 from __future__ import annotations
 
 import platform
@@ -63,8 +64,9 @@ def acting_rate(trainer: Trainer, steps: int, eps: float) -> float:
 def update_profile(trainer: Trainer, n: int) -> dict:
     """Updates/s and the boundary target's share of an update, with and without the cache."""
     cfg, enc = trainer.cfg, trainer.enc
-    batches = [mixed_batch(trainer.memory, trainer.demos, cfg.batch_size, cfg.demo_fraction, trainer.rng)
-               for _ in range(n)]
+    batches = [
+        mixed_batch(trainer.memory, trainer.demos, cfg.batch_size, cfg.demo_fraction, trainer.rng) for _ in range(n)
+    ]
 
     def timed(horizon, cache):
         t = clock()
@@ -95,15 +97,24 @@ def update_profile(trainer: Trainer, n: int) -> dict:
         parts["targets"] += clock() - t
         trainer.descend(b, y, parts)
     completions = float(np.mean([(b["kinds"] == COMPLETE).sum() for b in batches]))
-    out = {"updates_per_s": round(1 / t_update, 2), "update_ms": round(1000 * t_update, 2),
-           "completions_per_minibatch": round(completions, 2),
-           "parts_ms": {k: round(1000 * v / n, 2) for k, v in parts.items()}, **matmul_profile(trainer, batches)}
+    out = {
+        "updates_per_s": round(1 / t_update, 2),
+        "update_ms": round(1000 * t_update, 2),
+        "completions_per_minibatch": round(completions, 2),
+        "parts_ms": {k: round(1000 * v / n, 2) for k, v in parts.items()},
+        **matmul_profile(trainer, batches),
+    }
     if cfg.horizon == "anticipatory":
-        b_cached, b_plain = max(0.0, t_cached - t_myopic), max(0.0, t_plain - t_myopic)   # timing noise
-        out.update({"boundary_ms": round(1000 * b_cached, 2), "boundary_share": round(b_cached / t_update, 3),
-                    "boundary_ms_uncached": round(1000 * b_plain, 2),
-                    "boundary_share_uncached": round(b_plain / (t_update - b_cached + b_plain), 3),
-                    "updates_per_s_uncached": round(1 / (t_update - b_cached + b_plain), 2)})
+        b_cached, b_plain = max(0.0, t_cached - t_myopic), max(0.0, t_plain - t_myopic)  # timing noise
+        out.update(
+            {
+                "boundary_ms": round(1000 * b_cached, 2),
+                "boundary_share": round(b_cached / t_update, 3),
+                "boundary_ms_uncached": round(1000 * b_plain, 2),
+                "boundary_share_uncached": round(b_plain / (t_update - b_cached + b_plain), 3),
+                "updates_per_s_uncached": round(1 / (t_update - b_cached + b_plain), 2),
+            }
+        )
     return out
 
 
@@ -115,7 +126,8 @@ def matmul_profile(trainer: Trainer, batches: list, chunk: int = 50) -> dict:
     updates are profiled `chunk` at a time and only the sums are kept (1,000 updates at once held
     about 9 GB)."""
     from torch.profiler import ProfilerActivity, profile
-    total = t = flops = 0.0                                             # microseconds, FLOPs
+
+    total = t = flops = 0.0  # microseconds, FLOPs
     for lo in range(0, len(batches), chunk):
         with profile(activities=[ProfilerActivity.CPU], with_flops=True) as prof:
             for i in range(lo, min(lo + chunk, len(batches))):
@@ -128,54 +140,82 @@ def matmul_profile(trainer: Trainer, batches: list, chunk: int = 50) -> dict:
         t += sum(e.self_cpu_time_total for e in mm)
         flops += sum(e.flops for e in mm)
         del prof, ops, mm
-    return {"matmul_ms": round(t / 1000 / len(batches), 2), "matmul_share": round(t / total, 3) if total else 0.0,
-            "matmul_gflops": round(flops / t / 1e3, 1) if t else 0.0}
+    return {
+        "matmul_ms": round(t / 1000 / len(batches), 2),
+        "matmul_share": round(t / total, 3) if total else 0.0,
+        "matmul_gflops": round(flops / t / 1e3, 1) if t else 0.0,
+    }
 
 
 def bench_horizon(model_dir: str, layout: str, horizon: str, steps: int, updates: int, seed: int) -> dict:
     """Acting and update figures of one horizon's trainer."""
     model = compile_domain(model_dir, layout)
     with tempfile.TemporaryDirectory() as tmp:
-        cfg = Config(**{**domain_defaults(model, horizon), "domain": model_dir, "layout": model.layout,
-                        "horizon": horizon, "seed": seed, "steps": 0, "out": tmp})
+        cfg = Config(
+            **{
+                **domain_defaults(model, horizon),
+                "domain": model_dir,
+                "layout": model.layout,
+                "horizon": horizon,
+                "seed": seed,
+                "steps": 0,
+                "out": tmp,
+            }
+        )
         trainer = Trainer(cfg, progress=False)
         torch.manual_seed(seed)
         env = acting_rate(trainer, steps, eps=0.5)
         greedy = acting_rate(trainer, steps, eps=0.05)
         early = update_profile(trainer, updates)
-        trainer.memory = trainer.demos          # a competent policy's completion share
+        trainer.memory = trainer.demos  # a competent policy's completion share
         competent = update_profile(trainer, updates)
     loop = lambda r: round(1 / (1 / greedy + 1 / r["updates_per_s"]), 1)
-    return {"env_steps_per_s": round(env, 1), "env_steps_per_s_greedy": round(greedy, 1), "early": early,
-            "competent": competent, "train_steps_per_s_early": loop(early),
-            "train_steps_per_s_competent": loop(competent), "demo_transitions": len(trainer.demos)}
+    return {
+        "env_steps_per_s": round(env, 1),
+        "env_steps_per_s_greedy": round(greedy, 1),
+        "early": early,
+        "competent": competent,
+        "train_steps_per_s_early": loop(early),
+        "train_steps_per_s_competent": loop(competent),
+        "demo_transitions": len(trainer.demos),
+    }
 
 
 def main() -> None:
     p = cli.parser(__doc__.splitlines()[0], seed=True)
     p.add_argument("--steps", type=int, default=2000, help="acting steps timed (default 2000)")
-    p.add_argument("--updates", type=int, default=1000,
-                   help="updates timed per regime (default 1000: one target-sync period)")
+    p.add_argument(
+        "--updates", type=int, default=1000, help="updates timed per regime (default 1000: one target-sync period)"
+    )
     p.add_argument("--horizons", default=",".join(HORIZONS))
     args = p.parse_args()
     torch.set_num_threads(1)
     model = compile_domain(args.domain, args.layout)
     cli.check_writable(args.out or f"results/dqn-bench-{model.layout}.json")
-    out = {"domain": model.name, "layout": model.layout, "steps": args.steps, "updates": args.updates,
-           "threads": torch.get_num_threads(), "machine": f"{platform.machine()} {platform.python_implementation()} "
-                                                           f"{platform.python_version()}"}
+    out = {
+        "domain": model.name,
+        "layout": model.layout,
+        "steps": args.steps,
+        "updates": args.updates,
+        "threads": torch.get_num_threads(),
+        "machine": f"{platform.machine()} {platform.python_implementation()} {platform.python_version()}",
+    }
     for h in args.horizons.split(","):
         r = bench_horizon(args.domain, model.layout, h, args.steps, args.updates, args.seed)
         out[h] = r
         c, e = r["competent"], r["early"]
-        line = (f"{h:12s} env {r['env_steps_per_s_greedy']:.0f} steps/s | updates/s early {e['updates_per_s']:.1f}, "
-                f"competent {c['updates_per_s']:.1f} ({c['update_ms']:.1f} ms; "
-                f"{c['completions_per_minibatch']:.1f} completions/minibatch) | train steps/s early "
-                f"{r['train_steps_per_s_early']:.1f}, competent {r['train_steps_per_s_competent']:.1f} | matrix products "
-                f"{c['matmul_share']:.0%} of a competent update at {c['matmul_gflops']:.0f} GFLOPS")
+        line = (
+            f"{h:12s} env {r['env_steps_per_s_greedy']:.0f} steps/s | updates/s early {e['updates_per_s']:.1f}, "
+            f"competent {c['updates_per_s']:.1f} ({c['update_ms']:.1f} ms; "
+            f"{c['completions_per_minibatch']:.1f} completions/minibatch) | train steps/s early "
+            f"{r['train_steps_per_s_early']:.1f}, competent {r['train_steps_per_s_competent']:.1f} | matrix products "
+            f"{c['matmul_share']:.0%} of a competent update at {c['matmul_gflops']:.0f} GFLOPS"
+        )
         if "boundary_share" in c:
-            line += (f" | boundary share early {e['boundary_share']:.0%}, competent {c['boundary_share']:.0%} "
-                     f"(uncached {c['boundary_share_uncached']:.0%}, {c['updates_per_s_uncached']:.1f} updates/s)")
+            line += (
+                f" | boundary share early {e['boundary_share']:.0%}, competent {c['boundary_share']:.0%} "
+                f"(uncached {c['boundary_share_uncached']:.0%}, {c['updates_per_s_uncached']:.1f} updates/s)"
+            )
         print(line, flush=True)
     path = args.out or f"results/dqn-bench-{model.layout}.json"
     write_json(path, {**out, "provenance": results_provenance(out)})

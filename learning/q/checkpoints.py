@@ -1,6 +1,7 @@
 """Q-network checkpoints: written atomically in plain types, read with weights_only=True, checked against
 the domain and layout they are used on.
 """
+
 from __future__ import annotations
 
 import io
@@ -38,15 +39,15 @@ def read_checkpoint(path) -> dict:
     return full_precision(from_plain(payload), "net")
 
 
-
-
 def checkpoint_config(path) -> dict:
     """What a results file records of a Q-network checkpoint: its path, step, evaluation and training settings."""
     payload = read_checkpoint(path)
     cfg = payload.get("config", {})
-    return {"checkpoint": str(path),
-            **{k: payload[k] for k in ("step", "eval") if k in payload},
-            **{k: cfg[k] for k in ("horizon", "seed", "gamma", "goal_reward") if k in cfg}}
+    return {
+        "checkpoint": str(path),
+        **{k: payload[k] for k in ("step", "eval") if k in payload},
+        **{k: cfg[k] for k in ("horizon", "seed", "gamma", "goal_reward") if k in cfg},
+    }
 
 
 def network_payload(net: FactoredQNet, enc: Encoding, extra: dict | None = None) -> dict:
@@ -54,8 +55,13 @@ def network_payload(net: FactoredQNet, enc: Encoding, extra: dict | None = None)
     trained on (its PDDL name and the digest of its files, `planning.domain.identity`)."""
     from planning.domain.identity import identity
 
-    return {"net": net.state_dict(), "dims": net.dims, "signature": enc.signature(), **identity(enc.model),
-            **(extra or {})}
+    return {
+        "net": net.state_dict(),
+        "dims": net.dims,
+        "signature": enc.signature(),
+        **identity(enc.model),
+        **(extra or {}),
+    }
 
 
 def check_domain(path, payload: dict, model) -> None:

@@ -5,6 +5,7 @@
 `BatchedQ`     max_a Q and V_AP of many int states at once, float32 numpy (the searches' values)
 `NativeQ`      BatchedQ's q_max and v_ap compiled (`_qnet.c` beside this module), one state at a time
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -37,7 +38,7 @@ class LiveGreedy:
         self.tabs = [view(t.weight) for t in net.prefix_mods]
         self.outs = [(view(o.weight), view(o.bias)) for o in net.out_mods]
         self.H, self.I, self.inst_head = H, net.n_inst, net.inst_head.numpy()
-        self.bag_of = net.bag_of.numpy()                                 # instance -> its prefix rows
+        self.bag_of = net.bag_of.numpy()  # instance -> its prefix rows
         self.out_col = net.out_col[:, 0].numpy()
         self.slot_act, self.lab_of_slot = net.slot_act.numpy(), net.lab_of_slot.numpy()
         self.lab_of_act = net.lab_of_act.numpy()
@@ -55,7 +56,7 @@ class LiveGreedy:
                 z += self.bag_of @ np.concatenate(self.tabs)
             w_out = np.concatenate([o for o, _ in self.outs] + [np.zeros((1, H), np.float32)])
             b_out = np.concatenate([b for _, b in self.outs] + [np.zeros(1, np.float32)])
-            adv = np.take_along_axis(np.maximum(z, 0.0) @ w_out.T + b_out, self.out_col, 1)   # (I, V)
+            adv = np.take_along_axis(np.maximum(z, 0.0) @ w_out.T + b_out, self.out_col, 1)  # (I, V)
             m = np.minimum(self.slot_act @ valid.astype(np.float32), 1.0).reshape(adv.shape)
             c = adv - ((adv * m).sum(1) / np.maximum(m.sum(1), 1.0))[:, None]
             q += c.reshape(-1) @ self.lab_of_slot
@@ -101,7 +102,7 @@ class NumpyQ:
             used[flat] = True
             keys = np.flatnonzero(used)
             inv = (np.cumsum(used) - 1)[flat]
-            z = parts[keys // P, (d + 1) * H:(d + 2) * H]
+            z = parts[keys // P, (d + 1) * H : (d + 2) * H]
             if d:
                 z = z + self.prefix[d][keys % P]
             w, b = self.out[d]
@@ -152,34 +153,35 @@ class BatchedQ:
         hid = lin[0].weight.shape[0]
         self.H, self.hid, self.chunk, self.enc = H, hid, chunk, enc
         self.nbytes = nb = -(-n // 8)
-        self.one = 1 << (8 * nb)                   # the constant feature: bit 0 of one more byte
+        self.one = 1 << (8 * nb)  # the constant feature: bit 0 of one more byte
         self.byte_bits = f(np.unpackbits(np.arange(256, dtype=np.uint8)[:, None], axis=1, bitorder="little"))
         # layer 1 and the tests: rows = atom bits (8 per byte) + the constant byte's 8 bits
         bm = enc.bm
         pos = np.concatenate([bm.pre_pos, enc.goal_pos]).astype("<u8")
         neg = np.concatenate([bm.pre_neg, enc.goal_neg]).astype("<u8")
         J, self.n_var = len(pos), len(bm.pre_pos)
-        bits_of = lambda w: np.unpackbits(w.view(np.uint8).reshape(len(w), -1), axis=1,
-                                          bitorder="little")[:, :nb * 8].astype(np.float64)
-        P, Nn = bits_of(pos), bits_of(neg)                                 # (J, atom rows)
-        w1 = g(lin[0].weight).T                                            # (obs_dim, hidden)
-        c = nb * 8                                                         # the constant's row
+        bits_of = lambda w: np.unpackbits(w.view(np.uint8).reshape(len(w), -1), axis=1, bitorder="little")[
+            :, : nb * 8
+        ].astype(np.float64)
+        P, Nn = bits_of(pos), bits_of(neg)  # (J, atom rows)
+        w1 = g(lin[0].weight).T  # (obs_dim, hidden)
+        c = nb * 8  # the constant's row
         base = np.zeros((nb * 8 + 8, hid + 1 + J))
         base[:n, :hid] = w1[:n]
         base[c, :hid] = g(lin[0].bias)
-        base[c, hid] = 1.0                                                 # the constant, as a feature
-        base[:nb * 8, hid + 1:] = (P - Nn).T
-        base[c, hid + 1:] = 1.0 - P.sum(1)
+        base[c, hid] = 1.0  # the constant, as a feature
+        base[: nb * 8, hid + 1 :] = (P - Nn).T
+        base[c, hid + 1 :] = 1.0 - P.sum(1)
         self.l1_base = f(base)
-        self.task_part = enc.task_feat.astype(np.float64) @ w1[n:]        # (tasks, hidden)
-        self.l1_task: dict = {}                                            # task -> its layer-1 matrix
-        self.t0, self.g0 = hid + 1, hid + 1 + self.n_var                  # test columns: variants, goals
-        aug = lambda w, b: np.vstack([w, b[None]])                         # the constant's row: the bias
+        self.task_part = enc.task_feat.astype(np.float64) @ w1[n:]  # (tasks, hidden)
+        self.l1_task: dict = {}  # task -> its layer-1 matrix
+        self.t0, self.g0 = hid + 1, hid + 1 + self.n_var  # test columns: variants, goals
+        aug = lambda w, b: np.vstack([w, b[None]])  # the constant's row: the bias
         self.w2 = f(np.hstack([aug(g(lin[1].weight).T, g(lin[1].bias)), np.eye(hid + 1)[:, -1:]]))
         ws, bs = g(net.from_state.weight).T, g(net.from_state.bias)
         const = np.zeros((hid + 1, 1))
         const[-1] = 1.0
-        self.ws_v = np.hstack([aug(ws[:, :H], bs[:H]), const])             # the value stream, float64
+        self.ws_v = np.hstack([aug(ws[:, :H], bs[:H]), const])  # the value stream, float64
         self.value_w = np.append(g(net.value.weight)[0], g(net.value.bias)[0])
         T = len(enc.task_feat)
         self.goal_cols = [self.g0 + np.flatnonzero(enc.goal_owner == t) for t in range(T)]
@@ -189,7 +191,7 @@ class BatchedQ:
         tab = net.table
         labels = np.stack([v.numpy() for v in tab.val], 1)
         pids = np.stack([p.numpy() for p in tab.pid], 1)
-        segs = []                                       # (head, prefix id, its values in the label table)
+        segs = []  # (head, prefix id, its values in the label table)
         for d in range(nd):
             for p in range(tab.uses[d].shape[1]):
                 vals = np.unique(labels[pids[:, d] == p, d])
@@ -197,21 +199,27 @@ class BatchedQ:
                     segs.append((d, p, vals))
         live = sorted({d for d, _, _ in segs})
         self.n_live = len(live)
-        self.segs, self.live, self._net = segs, live, net       # for the compiled engine (NativeQ)
-        self.ws_h = f(np.hstack([np.hstack([aug(ws[:, (1 + d) * H:(2 + d) * H], bs[(1 + d) * H:(2 + d) * H]),
-                                            const]) for d in live]))      # each live head's part + 1
+        self.segs, self.live, self._net = segs, live, net  # for the compiled engine (NativeQ)
+        self.ws_h = f(
+            np.hstack(
+                [np.hstack([aug(ws[:, (1 + d) * H : (2 + d) * H], bs[(1 + d) * H : (2 + d) * H]), const]) for d in live]
+            )
+        )  # each live head's part + 1
         off = dict(zip(live, np.cumsum([0] + [tab.sizes[d] for d in live])[:-1].tolist()))
         ccat = sum(tab.sizes[d] for d in live)
         w_cat = np.zeros((H + 1, ccat))
         for d in live:
-            w_cat[:, off[d]:off[d] + tab.sizes[d]] = aug(g(net.out[d].weight).T, g(net.out[d].bias))
+            w_cat[:, off[d] : off[d] + tab.sizes[d]] = aug(g(net.out[d].weight).T, g(net.out[d].bias))
         self.w_cat = f(w_cat)
         with torch.no_grad():
             pref = {d: g(net.prefix_term(d)) for d in live if d}
         S = len(segs)
         self.seg_head = np.array([live.index(d) for d, _, _ in segs], dtype=np.intp)
-        self.seg_pref = f(np.hstack([np.stack([pref[d][p] if d else np.zeros(H) for d, p, _ in segs])
-                                     .reshape(S, H), np.zeros((S, 1))]))
+        self.seg_pref = f(
+            np.hstack(
+                [np.stack([pref[d][p] if d else np.zeros(H) for d, p, _ in segs]).reshape(S, H), np.zeros((S, 1))]
+            )
+        )
         col_sel, col_seg, col_of = [], [], {}
         for s, (d, p, vals) in enumerate(segs):
             for v in vals.tolist():
@@ -220,16 +228,16 @@ class BatchedQ:
                 col_seg.append(s)
         C = len(col_sel)
         self.col_sel = np.array(col_sel, dtype=np.intp)
-        self.seg_of = np.zeros((C, S), np.float32)                         # column -> its segment
+        self.seg_of = np.zeros((C, S), np.float32)  # column -> its segment
         self.seg_of[np.arange(C), col_seg] = 1.0
-        self.s_var = np.zeros((self.n_var, C), np.float32)                 # variant -> its action's columns
+        self.s_var = np.zeros((self.n_var, C), np.float32)  # variant -> its action's columns
         for j, a in enumerate(bm.op_action.tolist()):
             for d in live:
                 k = col_of.get((d, int(pids[a, d]), int(labels[a, d])))
                 if k is not None:
                     self.s_var[j, k] = 1.0
-        seg_var = (self.s_var @ self.seg_of).T                            # (segments, variants) 0/1
-        self.g_adv = f(np.concatenate([self.s_var.T, -seg_var]))          # [columns | means] -> Q - V
+        seg_var = (self.s_var @ self.seg_of).T  # (segments, variants) 0/1
+        self.g_adv = f(np.concatenate([self.s_var.T, -seg_var]))  # [columns | means] -> Q - V
         self.support = enc.support
         self.prob = enc.task_prob[enc.support]
 
@@ -240,10 +248,11 @@ class BatchedQ:
         if not (isinstance(states, np.ndarray) and states.dtype == np.uint64):
             one = self.one
             try:
-                raw = np.frombuffer(b"".join([(s | one).to_bytes(nb + 1, "little") for s in states]),
-                                    dtype=np.uint8).reshape(-1, nb + 1)
+                raw = np.frombuffer(
+                    b"".join([(s | one).to_bytes(nb + 1, "little") for s in states]), dtype=np.uint8
+                ).reshape(-1, nb + 1)
                 return self.byte_bits.take(raw, axis=0).reshape(len(raw), -1)
-            except (TypeError, AttributeError, OverflowError):   # not Python ints: the general packing
+            except (TypeError, AttributeError, OverflowError):  # not Python ints: the general packing
                 states = self.enc.pack(states)
         words = np.ascontiguousarray(states.reshape(-1, self.enc.n_words), dtype="<u8")
         raw = np.ones((len(words), nb + 1), np.uint8)
@@ -254,8 +263,8 @@ class BatchedQ:
         """A task's layer-1-and-tests matrix, its goal's bindings last (made once per task)."""
         w = self.l1_task.get(task)
         if w is None:
-            w = np.concatenate([self.l1_base[:, :self.g0], self.l1_base[:, self.goal_cols[task]]], axis=1)
-            w[-8, :self.hid] += self.task_part[task]
+            w = np.concatenate([self.l1_base[:, : self.g0], self.l1_base[:, self.goal_cols[task]]], axis=1)
+            w[-8, : self.hid] += self.task_part[task]
             w = self.l1_task[task] = np.ascontiguousarray(w, dtype=np.float32)
         return w
 
@@ -272,15 +281,15 @@ class BatchedQ:
         z = (h @ self.ws_h).reshape(N, self.n_live, H + 1).take(self.seg_head, axis=1)
         z += self.seg_pref
         np.maximum(z, 0, out=z)
-        y = (z.reshape(-1, H + 1) @ self.w_cat).reshape(N, -1).take(self.col_sel, axis=1)   # advantages
+        y = (z.reshape(-1, H + 1) @ self.w_cat).reshape(N, -1).take(self.col_sel, axis=1)  # advantages
         present = okf @ self.s_var
-        np.minimum(present, 1.0, out=present)                              # the valid (prefix, value) slots
+        np.minimum(present, 1.0, out=present)  # the valid (prefix, value) slots
         count = present @ self.seg_of
         np.maximum(count, 1.0, out=count)
         present *= y
         mean = present @ self.seg_of
         mean /= count
-        q = np.concatenate([y, mean], axis=1) @ self.g_adv                # (N, variants) Σ centred A
+        q = np.concatenate([y, mean], axis=1) @ self.g_adv  # (N, variants) Σ centred A
         return np.maximum.reduce(q, axis=1, where=okf > 0, initial=-np.inf), v
 
     def q_max(self, states, task: int) -> np.ndarray:
@@ -289,28 +298,28 @@ class BatchedQ:
             return np.zeros(0)
         a = self.features(states) @ self.layer1(task)
         np.maximum(a, 0, out=a)
-        adv, v = self.values(a[:, :self.t0], a[:, self.t0:self.g0])
-        goals = a[:, self.g0:]
+        adv, v = self.values(a[:, : self.t0], a[:, self.t0 : self.g0])
+        goals = a[:, self.g0 :]
         if goals.any():
-            adv[goals.any(1)] = 0.0                # AUTO alone: every head's advantage centres to 0
+            adv[goals.any(1)] = 0.0  # AUTO alone: every head's advantage centres to 0
         return v + adv
 
     def v_ap(self, states) -> np.ndarray:
         """Σ_τ P(τ) max_a Q(s, τ, a) over the task support, per state."""
         if len(states) == 0:
             return np.zeros(0)
-        a = self.features(states) @ self.l1_base                          # no task part yet
+        a = self.features(states) @ self.l1_base  # no task part yet
         hid, sup, K = self.hid, self.support, len(self.support)
-        tests = np.maximum(a[:, self.t0:], 0)
-        okf = np.ascontiguousarray(tests[:, :self.n_var])
-        sat = (tests[:, self.n_var:] @ self.goal_of[:, sup]) > 0          # (N, K)
+        tests = np.maximum(a[:, self.t0 :], 0)
+        okf = np.ascontiguousarray(tests[:, : self.n_var])
+        sat = (tests[:, self.n_var :] @ self.goal_of[:, sup]) > 0  # (N, K)
         tasks = np.zeros((K, hid + 1), np.float32)
         tasks[:, :hid] = self.task_part[sup]
         out = np.empty((len(a), K))
         step = max(1, self.chunk // max(K, 1))
         for lo in range(0, len(a), step):
             hi = min(lo + step, len(a))
-            h1 = np.maximum(a[lo:hi, None, :self.t0] + tasks, 0).reshape((hi - lo) * K, -1)
+            h1 = np.maximum(a[lo:hi, None, : self.t0] + tasks, 0).reshape((hi - lo) * K, -1)
             adv, v = self.values(h1, np.repeat(okf[lo:hi], K, axis=0))
             adv[sat[lo:hi].reshape(-1)] = 0.0
             out[lo:hi] = (v + adv).reshape(hi - lo, K)
@@ -349,13 +358,14 @@ class NativeQ:
         lin = [m for m in net.encoder if isinstance(m, nn.Linear)]
         n, H, hid = enc.n_atoms, b.H, b.hid
         W = self.W = max(1, -(-n // 64))
-        words = lambda masks: np.frombuffer(b"".join(int(m).to_bytes(8 * W, "little") for m in masks) or
-                                            bytes(8 * W), dtype="<u8").copy()
+        words = lambda masks: np.frombuffer(
+            b"".join(int(m).to_bytes(8 * W, "little") for m in masks) or bytes(8 * W), dtype="<u8"
+        ).copy()
         w1 = g(lin[0].weight).T
         ws, bs = g(net.from_state.weight).T, g(net.from_state.bias)
         cols = [(s, d, v) for s, (d, p, vals) in enumerate(b.segs) for v in vals.tolist()]
         var_cols = [np.flatnonzero(row).tolist() for row in b.s_var]
-        groups = model.trigger_groups()             # variant -> one of its positive atoms (-1: none)
+        groups = model.trigger_groups()  # variant -> one of its positive atoms (-1: none)
         tasks = list(model.tasks)
         goal0, goaln, gpos, gneg = [], [], [], []
         for t in tasks:
@@ -364,41 +374,81 @@ class NativeQ:
             gpos += [o.pos for o in t.bindings]
             gneg += [o.neg for o in t.bindings]
         self.arrays = a = {
-            "w1": f32(w1[:n]), "b1t": f32(g(lin[0].bias)[None] + b.task_part),
-            "w2": f32(g(lin[1].weight).T), "b2": f32(g(lin[1].bias)),
-            "wv1": f32(ws[:, :H]), "bv1": f64(bs[:H]), "wv": f64(g(net.value.weight)[0]),
-            "wh": f32(np.stack([ws[:, (1 + d) * H:(2 + d) * H] for d in b.live]) if b.live else np.zeros(1)),
-            "bh": f32(np.stack([bs[(1 + d) * H:(2 + d) * H] for d in b.live]) if b.live else np.zeros(1)),
+            "w1": f32(w1[:n]),
+            "b1t": f32(g(lin[0].bias)[None] + b.task_part),
+            "w2": f32(g(lin[1].weight).T),
+            "b2": f32(g(lin[1].bias)),
+            "wv1": f32(ws[:, :H]),
+            "bv1": f64(bs[:H]),
+            "wv": f64(g(net.value.weight)[0]),
+            "wh": f32(np.stack([ws[:, (1 + d) * H : (2 + d) * H] for d in b.live]) if b.live else np.zeros(1)),
+            "bh": f32(np.stack([bs[(1 + d) * H : (2 + d) * H] for d in b.live]) if b.live else np.zeros(1)),
             "seg_head": i32(b.seg_head if len(b.segs) else np.zeros(1)),
             "seg_pref": f32(b.seg_pref[:, :H] if len(b.segs) else np.zeros(1)),
             "col_seg": i32([s for s, _, _ in cols] or [0]),
             "col_w": f32(np.stack([g(net.out[d].weight)[v] for _, d, v in cols]) if cols else np.zeros(1)),
             "col_b": f32([g(net.out[d].bias)[v] for _, d, v in cols] or [0.0]),
-            "var_pos": words([o.pos for o in model.ops]), "var_neg": words([o.neg for o in model.ops]),
+            "var_pos": words([o.pos for o in model.ops]),
+            "var_neg": words([o.neg for o in model.ops]),
             "trig0": i32(np.cumsum([0] + [len(groups.get(i, [])) for i in range(n)])),
             "trig_var": i32(sum((list(groups.get(i, [])) for i in range(n)), []) or [0]),
             "always": i32(groups.get(-1, []) or [0]),
             "var_col0": i32(np.cumsum([0] + [len(c) for c in var_cols])[:-1]),
-            "var_coln": i32([len(c) for c in var_cols]), "var_cols": i32(sum(var_cols, []) or [0]),
-            "goal0": i32(goal0), "goaln": i32(goaln), "goal_pos": words(gpos), "goal_neg": words(gneg)}
+            "var_coln": i32([len(c) for c in var_cols]),
+            "var_cols": i32(sum(var_cols, []) or [0]),
+            "goal0": i32(goal0),
+            "goaln": i32(goaln),
+            "goal_pos": words(gpos),
+            "goal_neg": words(gneg),
+        }
         P, I = ctypes.c_void_p, ctypes.c_int64
 
         class Spec(ctypes.Structure):
-            _fields_ = ([(k, I) for k in ("W", "n_atoms", "hid", "H", "n_live", "n_seg", "n_col", "n_var",
-                                         "n_tasks")]
-                        + [(k, P) for k in ("w1", "b1t", "w2", "b2", "wv1", "bv1", "wv")] + [("bv", ctypes.c_double)]
-                        + [(k, P) for k in ("wh", "bh", "seg_head", "seg_pref", "col_seg", "col_w", "col_b",
-                                            "var_pos", "var_neg", "trig0", "trig_var", "always")]
-                        + [("n_always", I)]
-                        + [(k, P) for k in ("var_col0", "var_coln", "var_cols", "goal0", "goaln", "goal_pos",
-                                            "goal_neg", "memo")])
+            _fields_ = (
+                [(k, I) for k in ("W", "n_atoms", "hid", "H", "n_live", "n_seg", "n_col", "n_var", "n_tasks")]
+                + [(k, P) for k in ("w1", "b1t", "w2", "b2", "wv1", "bv1", "wv")]
+                + [("bv", ctypes.c_double)]
+                + [
+                    (k, P)
+                    for k in (
+                        "wh",
+                        "bh",
+                        "seg_head",
+                        "seg_pref",
+                        "col_seg",
+                        "col_w",
+                        "col_b",
+                        "var_pos",
+                        "var_neg",
+                        "trig0",
+                        "trig_var",
+                        "always",
+                    )
+                ]
+                + [("n_always", I)]
+                + [
+                    (k, P)
+                    for k in ("var_col0", "var_coln", "var_cols", "goal0", "goaln", "goal_pos", "goal_neg", "memo")
+                ]
+            )
 
-        self.spec = Spec(W=W, n_atoms=n, hid=hid, H=H, n_live=len(b.live), n_seg=len(b.segs), n_col=len(cols),
-                         n_var=len(model.ops), n_tasks=len(tasks), bv=float(g(net.value.bias)[0]),
-                         n_always=len(groups.get(-1, [])), **{k: v.ctypes.data for k, v in a.items()})
+        self.spec = Spec(
+            W=W,
+            n_atoms=n,
+            hid=hid,
+            H=H,
+            n_live=len(b.live),
+            n_seg=len(b.segs),
+            n_col=len(cols),
+            n_var=len(model.ops),
+            n_tasks=len(tasks),
+            bv=float(g(net.value.bias)[0]),
+            n_always=len(groups.get(-1, [])),
+            **{k: v.ctypes.data for k, v in a.items()},
+        )
         self.lib, self.ctx, self.model = lib, ctypes.addressof(self.spec), model
         self.spec.memo = self._memo = lib.qnet_memo_new(W, MEMO_LOG2) if memo else None
-        self.fn = ctypes.cast(lib.qnet_q_max, ctypes.c_void_p).value     # the search's bn_native_fn
+        self.fn = ctypes.cast(lib.qnet_q_max, ctypes.c_void_p).value  # the search's bn_native_fn
         self.support = i32(enc.support)
         self.prob = f64(enc.task_prob[enc.support])
 
@@ -421,24 +471,32 @@ class NativeQ:
 
     def q_max(self, states, task: int) -> np.ndarray:
         """max_a Q(s, task, a) per int state (a task index)."""
-        out, words = np.zeros(len(states)), self.words(states)      # kept alive through the call
-        if len(states) and self.lib.qnet_q_max(self.ctx, int(task), words.ctypes.data, len(states),
-                                                self.W, out.ctypes.data):
+        out, words = np.zeros(len(states)), self.words(states)  # kept alive through the call
+        if len(states) and self.lib.qnet_q_max(
+            self.ctx, int(task), words.ctypes.data, len(states), self.W, out.ctypes.data
+        ):
             raise MemoryError("qnet_q_max failed")
         return out
 
     def v_ap(self, states) -> np.ndarray:
         """Σ_τ P(τ) max_a Q(s, τ, a) over the task support, per int state."""
         out, words = np.zeros(len(states)), self.words(states)
-        if len(states) and self.lib.qnet_v_ap(self.ctx, words.ctypes.data, len(states), self.W,
-                                               self.support.ctypes.data, self.prob.ctypes.data, len(self.support),
-                                               out.ctypes.data):
+        if len(states) and self.lib.qnet_v_ap(
+            self.ctx,
+            words.ctypes.data,
+            len(states),
+            self.W,
+            self.support.ctypes.data,
+            self.prob.ctypes.data,
+            len(self.support),
+            out.ctypes.data,
+        ):
             raise MemoryError("qnet_v_ap failed")
         return out
 
 
 _QNET_LIB = None
-MEMO_LOG2 = 20                     # the memo's slots (32 bytes each in the restaurant): 2**20, half of them used at most
+MEMO_LOG2 = 20  # the memo's slots (32 bytes each in the restaurant): 2**20, half of them used at most
 
 
 def _qnet_lib():

@@ -14,6 +14,7 @@ The network trains in torch (`learning.q.training`, its targets in
 copies of its weights (`learning.q.inference`), bound to a layout as the value
 of the protocol (`learning.q.value`).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -39,7 +40,7 @@ class ActionTable:
             # scatter[a, p*V+v] = 1: action a is a tuple with prefix p and value v at head d
             sc = np.zeros((n, len(uniq) * self.sizes[d]), dtype=np.float32)
             sc[np.arange(n), flat] = 1.0
-            uses = np.zeros((n, len(uniq)), dtype=np.float32)    # action a has prefix p
+            uses = np.zeros((n, len(uniq)), dtype=np.float32)  # action a has prefix p
             uses[np.arange(n), pid] = 1.0
             self.prefixes.append(torch.tensor(np.array(uniq, dtype=np.int64).reshape(len(uniq), d)))
             self.flat.append(torch.from_numpy(flat))
@@ -61,12 +62,24 @@ class FactoredQNet(nn.Module):
     encoder's first layer too, for the boundary rows that repeat a state per task.
     """
 
-    def __init__(self, obs_dim: int, labels: np.ndarray, vocab_sizes: list, hidden: int = 256,
-                 embed: int = 16, head_hidden: int = 64):
+    def __init__(
+        self,
+        obs_dim: int,
+        labels: np.ndarray,
+        vocab_sizes: list,
+        hidden: int = 256,
+        embed: int = 16,
+        head_hidden: int = 64,
+    ):
         super().__init__()
         self.table = ActionTable(labels, vocab_sizes)
-        self.dims = {"obs_dim": obs_dim, "hidden": hidden, "embed": embed, "head_hidden": head_hidden,
-                     "vocab_sizes": list(vocab_sizes)}
+        self.dims = {
+            "obs_dim": obs_dim,
+            "hidden": hidden,
+            "embed": embed,
+            "head_hidden": head_hidden,
+            "vocab_sizes": list(vocab_sizes),
+        }
         n = len(vocab_sizes)
         self.head_hidden = head_hidden
         self.encoder = nn.Sequential(nn.Linear(obs_dim, hidden), nn.ReLU(), nn.Linear(hidden, hidden), nn.ReLU())
@@ -76,10 +89,11 @@ class FactoredQNet(nn.Module):
         # Head d's first layer on [component embeddings 1..d-1] is a sum of one learned
         # table per earlier component (a linear map of concatenated embeddings is exactly that).
         self.prefix_tables = nn.ModuleList(
-            nn.ModuleList(nn.Embedding(vocab_sizes[k], head_hidden) for k in range(d)) for d in range(1, n))
+            nn.ModuleList(nn.Embedding(vocab_sizes[k], head_hidden) for k in range(d)) for d in range(1, n)
+        )
         for tables in self.prefix_tables:
             for t in tables:
-                nn.init.normal_(t.weight, std=embed ** -0.5)
+                nn.init.normal_(t.weight, std=embed**-0.5)
         self.out = nn.ModuleList(nn.Linear(head_hidden, v) for v in vocab_sizes)
         self._plan_heads()
 
@@ -105,9 +119,9 @@ class FactoredQNet(nn.Module):
         uniq, first, lab_of_act = np.unique(labels, axis=0, return_index=True, return_inverse=True)
         L = len(uniq)
         self.lab_of_act = torch.from_numpy(lab_of_act.reshape(-1).astype(np.int64))
-        self.act_by_label = np.argsort(lab_of_act.reshape(-1), kind="stable")        # actions grouped by label
+        self.act_by_label = np.argsort(lab_of_act.reshape(-1), kind="stable")  # actions grouped by label
         self.label_start = np.searchsorted(lab_of_act.reshape(-1)[self.act_by_label], np.arange(len(uniq)))
-        inst = []                                       # (head, prefix id, values that follow it)
+        inst = []  # (head, prefix id, values that follow it)
         for d in range(len(t.sizes)):
             pid, val = t.pid[d].numpy()[first], uniq[:, d]
             for p in range(t.uses[d].shape[1]):
@@ -118,14 +132,14 @@ class FactoredQNet(nn.Module):
         I, Vm = len(inst), max((t.sizes[d] for d in heads), default=1)
         self.n_inst, self.v_max = I, Vm
         self.inst_head = torch.tensor([d for d, _, _ in inst], dtype=torch.int64)
-        self.state_width = (max(heads, default=-1) + 2) * H      # value stream and heads up to the last live
+        self.state_width = (max(heads, default=-1) + 2) * H  # value stream and heads up to the last live
         # output rows: the live heads' weights stacked, then a zero row for the padding
         off = dict(zip(heads, np.cumsum([0] + [t.sizes[d] for d in heads])[:-1].tolist()))
         self.out_heads, pad = heads, sum(t.sizes[d] for d in heads)
         out_col = np.full((I, Vm), pad, dtype=np.int64)
         for i, (d, _, _) in enumerate(inst):
-            out_col[i, :t.sizes[d]] = off[d] + np.arange(t.sizes[d])
-        self.out_col = torch.from_numpy(out_col[:, None, :])                            # (I, 1, V)
+            out_col[i, : t.sizes[d]] = off[d] + np.arange(t.sizes[d])
+        self.out_col = torch.from_numpy(out_col[:, None, :])  # (I, 1, V)
         # prefix part: one bag of (table, component) rows per instance, in the stacked prefix tables
         tables = [(d, k) for d in heads if d for k in range(d)]
         toff = dict(zip(tables, np.cumsum([0] + [t.sizes[k] for _, k in tables])[:-1].tolist()))
@@ -136,7 +150,7 @@ class FactoredQNet(nn.Module):
             bag_off.append(len(bag))
             bag += [toff[(d, k)] + int(c) for k, c in enumerate(t.prefixes[d][p].tolist())]
         self.bag, self.bag_off = torch.tensor(bag, dtype=torch.int64), torch.tensor(bag_off, dtype=torch.int64)
-        self.bag_of = torch.zeros(I, sum(t.sizes[k] for _, k in tables))           # instance -> its prefix rows
+        self.bag_of = torch.zeros(I, sum(t.sizes[k] for _, k in tables))  # instance -> its prefix rows
         for i, (lo, hi) in enumerate(zip(bag_off, bag_off[1:] + [len(bag)])):
             self.bag_of[i, bag[lo:hi]] = 1.0
         # (instance, value) slots: which labels use them
@@ -148,21 +162,21 @@ class FactoredQNet(nn.Module):
                 i = where.get((d, int(pid[l])))
                 if i is not None:
                     slot_lab[l, i * Vm + uniq[l, d]] = 1.0
-        self.slot_act = torch.from_numpy(slot_lab[lab_of_act.reshape(-1)].T.copy())     # (slots, A)
-        self.lab_of_slot = torch.from_numpy(slot_lab.T.copy())                           # (slots, L)
+        self.slot_act = torch.from_numpy(slot_lab[lab_of_act.reshape(-1)].T.copy())  # (slots, A)
+        self.lab_of_slot = torch.from_numpy(slot_lab.T.copy())  # (slots, L)
 
     def head_masks(self, valid: torch.Tensor) -> tuple:
         """(I, N, V) 0/1 mask of the valid values after each instance's prefix, and its (I, N, 1)
         count (at least 1): what the advantages are centred over. It depends on validity only, so
         one call serves the online and the target network (`select` takes rows of it)."""
-        m = (self.slot_act @ valid.to(torch.float32).T).clamp_(max=1.0)          # (slots, N)
+        m = (self.slot_act @ valid.to(torch.float32).T).clamp_(max=1.0)  # (slots, N)
         m = m.view(self.n_inst, self.v_max, len(valid)).transpose(1, 2)
         return m, m.sum(-1, keepdim=True).clamp_(min=1.0)
 
     def mask_bits(self, valid) -> np.ndarray:
         """(N, instances * V) bool: `head_masks` of rows with this validity in a compact form, to keep
         beside the validity it depends on (`masks_from_bits` turns it back)."""
-        m = self.slot_act @ torch.as_tensor(valid).to(torch.float32).T                    # (slots, N)
+        m = self.slot_act @ torch.as_tensor(valid).to(torch.float32).T  # (slots, N)
         return (m > 0).T.numpy()
 
     def masks_from_bits(self, bits: np.ndarray) -> tuple:
@@ -189,23 +203,23 @@ class FactoredQNet(nn.Module):
         """
         H, e, w = self.head_hidden, self.encoder, self.state_width
         parts = F.linear(e[3](e[2](e[1](pre))), self.from_state.weight[:w], self.from_state.bias[:w])
-        v = self.value(torch.relu(parts[:, :H]))                                       # (N, 1)
+        v = self.value(torch.relu(parts[:, :H]))  # (N, 1)
         N, L = parts.shape[0], self.lab_of_slot.shape[1]
         m, count = masks
-        act = (count[:, :, 0] >= 2).any(1).nonzero()[:, 0]                           # instances in use
+        act = (count[:, :, 0] >= 2).any(1).nonzero()[:, 0]  # instances in use
         if not len(act):
             return v.expand(-1, L)
         if len(act) < self.n_inst:
             m, count = m.index_select(0, act), count.index_select(0, act)
-        z = parts[:, H:].view(N, w // H - 1, H).transpose(0, 1).index_select(0, self.inst_head[act])   # (K, N, H)
+        z = parts[:, H:].view(N, w // H - 1, H).transpose(0, 1).index_select(0, self.inst_head[act])  # (K, N, H)
         if self.prefix_mods:
             tabs = torch.cat([t.weight for t in self.prefix_mods])
             pref = F.embedding_bag(self.bag, tabs, self.bag_off, mode="sum").index_select(0, act)
-            z.add_(pref[:, None])                                                         # + the prefix parts
+            z.add_(pref[:, None])  # + the prefix parts
         w_out = torch.cat([o.weight for o in self.out_mods] + [z.new_zeros(1, H)])
         b_out = torch.cat([o.bias for o in self.out_mods] + [z.new_zeros(1)])
-        adv = F.linear(z.relu_(), w_out, b_out).gather(2, self.out_col[act].expand(-1, N, -1))   # (K, N, V)
-        c = adv - (adv * m).sum(-1, keepdim=True) / count                              # centred over the valid values
+        adv = F.linear(z.relu_(), w_out, b_out).gather(2, self.out_col[act].expand(-1, N, -1))  # (K, N, V)
+        c = adv - (adv * m).sum(-1, keepdim=True) / count  # centred over the valid values
         slots = self.lab_of_slot.view(self.n_inst, self.v_max, L).index_select(0, act).reshape(-1, L)
         return torch.addmm(v, c.transpose(0, 1).reshape(N, -1), slots)
 
@@ -215,23 +229,34 @@ class FactoredQNet(nn.Module):
         q = self.q_labels(self.encoder[0](obs), masks).index_select(1, self.lab_of_act)
         return q.masked_fill(~valid, float("-inf"))
 
-    def q_taken(self, obs: torch.Tensor, valid: torch.Tensor, actions: torch.Tensor,
-                masks: tuple | None = None) -> torch.Tensor:
+    def q_taken(
+        self, obs: torch.Tensor, valid: torch.Tensor, actions: torch.Tensor, masks: tuple | None = None
+    ) -> torch.Tensor:
         """(N,) Q of each row's taken action, which is valid there (`forward` gathered, without the
         copy to every action)."""
         q = self.q_labels(self.encoder[0](obs), self.head_masks(valid) if masks is None else masks)
         return q.gather(1, self.lab_of_act[actions][:, None])[:, 0]
 
-    def first_layer_pairs(self, bits: torch.Tensor, task_feat: torch.Tensor, state_of: torch.Tensor,
-                          task_of: torch.Tensor) -> torch.Tensor:
+    def first_layer_pairs(
+        self, bits: torch.Tensor, task_feat: torch.Tensor, state_of: torch.Tensor, task_of: torch.Tensor
+    ) -> torch.Tensor:
         """The first layer's pre-activations of the observations [bits[state_of], task_feat[task_of]],
         split: its state part once per state, its task part once per task (the 42-48 task rows of a
         boundary state share one state projection)."""
         w, b, k = self.encoder[0].weight, self.encoder[0].bias, bits.shape[1]
-        return F.linear(bits, w[:, :k]).index_select(0, state_of) + F.linear(task_feat, w[:, k:], b).index_select(0, task_of)
+        return F.linear(bits, w[:, :k]).index_select(0, state_of) + F.linear(task_feat, w[:, k:], b).index_select(
+            0, task_of
+        )
 
-    def forward_pairs(self, bits: torch.Tensor, task_feat: torch.Tensor, state_of: torch.Tensor,
-                      task_of: torch.Tensor, valid: torch.Tensor, masks: tuple | None = None) -> torch.Tensor:
+    def forward_pairs(
+        self,
+        bits: torch.Tensor,
+        task_feat: torch.Tensor,
+        state_of: torch.Tensor,
+        task_of: torch.Tensor,
+        valid: torch.Tensor,
+        masks: tuple | None = None,
+    ) -> torch.Tensor:
         """`forward` of the observations [bits[state_of], task_feat[task_of]] (`first_layer_pairs`)."""
         masks = self.head_masks(valid) if masks is None else masks
         q = self.q_labels(self.first_layer_pairs(bits, task_feat, state_of, task_of), masks)
@@ -242,7 +267,6 @@ def masked_max(q: torch.Tensor, valid: torch.Tensor):
     """(max over valid actions, argmax) per row."""
     qm = q.masked_fill(~valid, float("-inf"))
     return qm.max(dim=1)
-
 
 
 def build_network(enc: Encoding, hidden: int = 256, embed: int = 16, head_hidden: int = 64) -> FactoredQNet:

@@ -11,6 +11,7 @@ global gradient norm is summed in another order (float rounding).
 Checkpoints keep torch's per-parameter `Adam.state_dict()` format, so a run saved by
 either optimizer resumes under the other.
 """
+
 from __future__ import annotations
 
 import torch
@@ -28,8 +29,8 @@ class FlatAdam:
             self.flat = nn.Parameter(torch.cat([p.detach().reshape(-1) for p in self.params]))
         self.flat.grad = torch.zeros_like(self.flat)
         for p, view, grad in zip(self.params, self._views(self.flat.data), self._views(self.flat.grad)):
-            p.data = view            # the module's parameter now lives in the flat buffer
-            p.grad = grad            # backward accumulates into the flat gradient in place
+            p.data = view  # the module's parameter now lives in the flat buffer
+            p.grad = grad  # backward accumulates into the flat gradient in place
         self.opt = torch.optim.Adam([self.flat], lr=lr, fused=True)
 
     def _views(self, flat: torch.Tensor) -> list:
@@ -42,7 +43,7 @@ class FlatAdam:
 
     def step(self, max_norm: float) -> None:
         """Clip the gradients' global L2 norm to max_norm, then one Adam step."""
-        g = self.flat.grad                   # torch.nn.utils.clip_grad_norm_'s rule, on the one tensor
+        g = self.flat.grad  # torch.nn.utils.clip_grad_norm_'s rule, on the one tensor
         g.mul_((max_norm / (torch.linalg.vector_norm(g) + 1e-6)).clamp_(max=1.0))
         self.opt.step()
 
@@ -54,8 +55,10 @@ class FlatAdam:
         state = {}
         if flat is not None:
             moments = [self._views(flat[key]) for key in ("exp_avg", "exp_avg_sq")]
-            state = {i: {"step": flat["step"].clone(), "exp_avg": m.clone(), "exp_avg_sq": v.clone()}
-                     for i, (m, v) in enumerate(zip(*moments))}
+            state = {
+                i: {"step": flat["step"].clone(), "exp_avg": m.clone(), "exp_avg_sq": v.clone()}
+                for i, (m, v) in enumerate(zip(*moments))
+            }
         return {"state": state, "param_groups": [group]}
 
     def load_state_dict(self, sd: dict) -> None:
@@ -65,6 +68,10 @@ class FlatAdam:
         flat = {}
         if state:
             per = [state[i] for i in range(len(self.params))]
-            flat = {0: {"step": per[0]["step"].clone(),
-                        **{key: torch.cat([s[key].reshape(-1) for s in per]) for key in ("exp_avg", "exp_avg_sq")}}}
+            flat = {
+                0: {
+                    "step": per[0]["step"].clone(),
+                    **{key: torch.cat([s[key].reshape(-1) for s in per]) for key in ("exp_avg", "exp_avg_sq")},
+                }
+            }
         self.opt.load_state_dict({"state": flat, "param_groups": [group]})

@@ -6,14 +6,15 @@ rule (CONTINUE, COMPLETE, TERMINAL, below). Demonstrations live in
 a second, never-overwritten memory; `mixed_batch` reserves a fixed share of
 every minibatch for them (Appendix A.1, the protected demo fraction).
 """
+
 from __future__ import annotations
 
 import numpy as np
 
 # Transition kinds in the replay buffer: how the target bootstraps (Algorithm 1).
-CONTINUE = 0     # within the task, or the per-task timeout: bootstrap the same task (§4.1.3 a)
-COMPLETE = 1     # the task completed: myopic y = r, anticipatory y = r + γ V_AP(s')
-TERMINAL = 2     # the domain declares the episode over (e.g. the minimal example): y = r
+CONTINUE = 0  # within the task, or the per-task timeout: bootstrap the same task (§4.1.3 a)
+COMPLETE = 1  # the task completed: myopic y = r, anticipatory y = r + γ V_AP(s')
+TERMINAL = 2  # the domain declares the episode over (e.g. the minimal example): y = r
 
 
 class Replay:
@@ -27,7 +28,7 @@ class Replay:
         self.actions = np.zeros(capacity, dtype=np.int64)
         self.rewards = np.zeros(capacity, dtype=np.float32)
         self.kinds = np.zeros(capacity, dtype=np.int8)
-        self.writes = np.zeros(capacity, dtype=np.int64)    # per slot: how often written (for caches)
+        self.writes = np.zeros(capacity, dtype=np.int64)  # per slot: how often written (for caches)
 
     def __len__(self) -> int:
         return self.size
@@ -43,21 +44,35 @@ class Replay:
 
     def take(self, idx: np.ndarray) -> dict:
         """The transitions at the given slots, as arrays."""
-        return {"states": self.states[idx], "tasks": self.tasks[idx], "actions": self.actions[idx],
-                "rewards": self.rewards[idx], "next_states": self.next_states[idx], "kinds": self.kinds[idx]}
+        return {
+            "states": self.states[idx],
+            "tasks": self.tasks[idx],
+            "actions": self.actions[idx],
+            "rewards": self.rewards[idx],
+            "next_states": self.next_states[idx],
+            "kinds": self.kinds[idx],
+        }
 
     def state_dict(self) -> dict:
         """Everything needed to rebuild the buffer (for resuming)."""
         n = self.size
-        return {"capacity": self.capacity, "pos": self.pos, "size": n, **{k: v[:n].copy() for k, v in self.take(
-            np.arange(n)).items()}}
+        return {
+            "capacity": self.capacity,
+            "pos": self.pos,
+            "size": n,
+            **{k: v[:n].copy() for k, v in self.take(np.arange(n)).items()},
+        }
 
     def load_state_dict(self, d: dict) -> None:
         """Restore what `state_dict` saved."""
         n = d["size"]
         self.states[:n], self.next_states[:n] = d["states"], d["next_states"]
-        self.tasks[:n], self.actions[:n], self.rewards[:n], self.kinds[:n] = \
-            d["tasks"], d["actions"], d["rewards"], d["kinds"]
+        self.tasks[:n], self.actions[:n], self.rewards[:n], self.kinds[:n] = (
+            d["tasks"],
+            d["actions"],
+            d["rewards"],
+            d["kinds"],
+        )
         self.size, self.pos = n, d["pos"]
         self.writes += 1
 
@@ -69,7 +84,7 @@ def mixed_batch(agent: Replay, demos: Replay, n: int, demo_fraction: float, rng)
     demos.capacity + i), and "writes", how often that slot had been written (what a per-slot
     cache checks to know the transition is still the one it saw)."""
     n_demo = int(round(demo_fraction * n)) if len(demos) else 0
-    n_demo = max(n_demo, n - len(agent)) if len(demos) else 0   # early on, demos fill what the agent lacks
+    n_demo = max(n_demo, n - len(agent)) if len(demos) else 0  # early on, demos fill what the agent lacks
     parts = []
     if n_demo:
         idx = rng.integers(len(demos), size=n_demo)

@@ -6,6 +6,7 @@ support) weighted by P(τ). `BoundaryCache` keeps the boundary rows' target valu
 `SlotCache` the replay slots' encodings and target values until the next target sync.
 `preparedness` is V_AP under a pair of networks (with online = target: the greedy V_AP).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -56,7 +57,7 @@ class BoundaryCache:
     whenever the target network changes.
     """
 
-    def __init__(self, max_states: int = 4096):   # ~14 KB a state (two-room)
+    def __init__(self, max_states: int = 4096):  # ~14 KB a state (two-room)
         self.max_states, self.entries = max_states, {}
 
     def __len__(self) -> int:
@@ -88,11 +89,11 @@ class SlotCache:
 
     def __init__(self, enc: Encoding, size: int, mask_bits=None):
         self.enc, self.epoch, self.mask_bits = enc, 0, mask_bits
-        self.writes = np.full(size, -1, dtype=np.int64)                 # the slot's write count when encoded
-        self.bits = np.zeros((size, 2, enc.n_atoms), dtype=np.uint8)     # s, s'
-        self.valid = np.zeros((size, 2, enc.n_actions), dtype=bool)      # (s, τ), (s', τ)
+        self.writes = np.full(size, -1, dtype=np.int64)  # the slot's write count when encoded
+        self.bits = np.zeros((size, 2, enc.n_atoms), dtype=np.uint8)  # s, s'
+        self.valid = np.zeros((size, 2, enc.n_actions), dtype=bool)  # (s, τ), (s', τ)
         self.q_epoch = np.full(size, -1, dtype=np.int64)
-        self.q = np.zeros((size, 0), dtype=np.float32)                  # target values at (s', τ)
+        self.q = np.zeros((size, 0), dtype=np.float32)  # target values at (s', τ)
         self.masks = None
 
     def sync(self) -> None:
@@ -125,8 +126,10 @@ class SlotCache:
         """(observations, validity, head-mask bits or None) of the batch's (s, τ) rows, as
         `Encoding.observe` / `valid_for` / `FactoredQNet.mask_bits`."""
         slots = self.encode(batch)
-        obs = np.concatenate([self.bits[slots, 0].astype(np.float32),
-                              self.enc.task_feat[np.asarray(batch["tasks"], dtype=np.int64)]], axis=1)
+        obs = np.concatenate(
+            [self.bits[slots, 0].astype(np.float32), self.enc.task_feat[np.asarray(batch["tasks"], dtype=np.int64)]],
+            axis=1,
+        )
         return obs, self.valid[slots, 0], None if self.masks is None else self.masks[slots, 0]
 
     def known(self, slots: np.ndarray) -> np.ndarray:
@@ -154,15 +157,19 @@ class _Pairs:
     action; `best` and `values` answer in that network's columns (`columns`).
     """
 
-    def __init__(self, enc: Encoding, bits: np.ndarray, state_of: np.ndarray, task_of: np.ndarray,
-                 valid: np.ndarray):
+    def __init__(self, enc: Encoding, bits: np.ndarray, state_of: np.ndarray, task_of: np.ndarray, valid: np.ndarray):
         self.enc, self.bits, self.state_of, self.task_of, self.valid = enc, bits, state_of, task_of, valid
         self.feat = torch.from_numpy(enc.task_feat)
 
     def _inputs(self, rows):
         """The distinct states' bits of these rows and the rows' state and task indices into them."""
         states, s = np.unique(self.state_of[rows], return_inverse=True)
-        return torch.from_numpy(self.bits[states]), self.feat, torch.from_numpy(s.reshape(-1)), torch.from_numpy(self.task_of[rows])
+        return (
+            torch.from_numpy(self.bits[states]),
+            self.feat,
+            torch.from_numpy(s.reshape(-1)),
+            torch.from_numpy(self.task_of[rows]),
+        )
 
     @staticmethod
     def columns(net: nn.Module, n_actions: int) -> torch.Tensor:
@@ -187,8 +194,16 @@ class _Pairs:
         return net(torch.cat([bits[s], feat[t]], 1), torch.from_numpy(self.valid[rows]))
 
 
-def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict, gamma: float,
-               horizon: str, cache: BoundaryCache | None = None, slots: SlotCache | None = None) -> torch.Tensor:
+def td_targets(
+    online: nn.Module,
+    target: nn.Module,
+    enc: Encoding,
+    batch: dict,
+    gamma: float,
+    horizon: str,
+    cache: BoundaryCache | None = None,
+    slots: SlotCache | None = None,
+) -> torch.Tensor:
     """Double-DQN targets of Algorithm 1 (lines 11-17) for a batch of stored transitions.
 
     batch: next_states (N, W) uint64, tasks (N,), rewards (N,), kinds (N,) (CONTINUE /
@@ -222,7 +237,7 @@ def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict,
         sl, known = None, np.zeros(n, dtype=bool)
         valid_c, bits_c = enc.valid_for(nxt[cont], tasks), _bits(enc, nxt[cont])
         mb_c = masks_of(valid_c)
-    unknown = np.flatnonzero(~known)                                    # continuing rows the target must value
+    unknown = np.flatnonzero(~known)  # continuing rows the target must value
     # the distinct completion states, their cached entries and the ones to value afresh
     first: dict = {}
     inv = np.array([first.setdefault(s.tobytes(), len(first)) for s in nxt[comp]], dtype=np.int64)
@@ -244,40 +259,47 @@ def td_targets(online: nn.Module, target: nn.Module, enc: Encoding, batch: dict,
                 mb_b[j] = e[2]
     # rows: the continuing (s', τ), then each completion state with every task of the support
     valid = np.concatenate([valid_c, valid_b.reshape(U * k, A)])
-    pairs = _Pairs(enc, np.concatenate([bits_c, _bits(enc, uniq)]).astype(np.float32),
-                   np.concatenate([np.arange(n), n + np.repeat(np.arange(U), k)]).astype(np.int64),
-                   np.concatenate([tasks, np.tile(enc.support, U)]).astype(np.int64), valid)
-    several = np.flatnonzero(valid.sum(1) > 1)                          # rows whose argmax needs the online net
+    pairs = _Pairs(
+        enc,
+        np.concatenate([bits_c, _bits(enc, uniq)]).astype(np.float32),
+        np.concatenate([np.arange(n), n + np.repeat(np.arange(U), k)]).astype(np.int64),
+        np.concatenate([tasks, np.tile(enc.support, U)]).astype(np.int64),
+        valid,
+    )
+    several = np.flatnonzero(valid.sum(1) > 1)  # rows whose argmax needs the online net
     rows_t = np.concatenate([unknown, (n + miss[:, None] * k + np.arange(k)).reshape(-1)]).astype(np.int64)
     nu = len(unknown)
     with torch.inference_mode():
         masks = online.masks_from_bits(np.concatenate([mb_c, mb_b.reshape(U * k, mb_c.shape[1])])) if factored else None
         pick = lambda rows: None if masks is None else FactoredQNet.select_masks(masks, torch.from_numpy(rows))
         col = _Pairs.columns(target, A)
-        best = col[torch.from_numpy(valid.argmax(1))]                   # the one valid action, where one
+        best = col[torch.from_numpy(valid.argmax(1))]  # the one valid action, where one
         if len(several):
             best[torch.from_numpy(several)] = pairs.best(online, several, pick(several))
         qt = pairs.values(target, rows_t, pick(rows_t))
         picked = torch.empty(len(valid), dtype=torch.float32)
         rt = torch.from_numpy(rows_t)
         picked[rt] = qt.gather(1, best[rt][:, None])[:, 0]
-        if sl is not None:                    # the slots' target values, kept and reused
+        if sl is not None:  # the slots' target values, kept and reused
             kn = np.flatnonzero(known)
             if len(kn):
                 picked[torch.from_numpy(kn)] = torch.from_numpy(slots.q[sl[kn], best[torch.from_numpy(kn)].numpy()])
             if nu:
                 slots.store(sl[unknown], qt[:nu].numpy())
         held = [j for j, e in enumerate(hit) if e is not None]
-        if held:                              # the cached target values at the online argmax
+        if held:  # the cached target values at the online argmax
             cols = best.numpy()[n:].reshape(U, k)[held]
             qh = np.stack([hit[j][1] for j in held])
             rows_h = torch.from_numpy((n + np.array(held)[:, None] * k + np.arange(k)).reshape(-1))
             picked[rows_h] = torch.from_numpy(np.take_along_axis(qh, cols[:, :, None], 2).reshape(-1))
         if cache is not None:
             qt = qt.numpy()
-            for i, j in enumerate(miss[:max(0, cache.max_states - len(cache.entries))]):
-                cache.entries[keys[j]] = (valid_b[j].copy(), qt[nu + i * k:nu + (i + 1) * k].copy(),
-                                          None if mb_b is None else mb_b[j].copy())
+            for i, j in enumerate(miss[: max(0, cache.max_states - len(cache.entries))]):
+                cache.entries[keys[j]] = (
+                    valid_b[j].copy(),
+                    qt[nu + i * k : nu + (i + 1) * k].copy(),
+                    None if mb_b is None else mb_b[j].copy(),
+                )
     y[torch.from_numpy(cont)] += gamma * picked[:n]
     if len(comp):
         p = torch.from_numpy(enc.task_prob[enc.support]).float()

@@ -22,6 +22,7 @@ stops with a one-line error, and `learning.export` refuses the run until it ends
 `train_run` is the one way a run starts or resumes, for the command and for
 `experiments.sweep` alike.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -134,8 +135,11 @@ class Config:
     """run folder (default runs/dqn/<domain>-<layout>-<horizon>-seed<seed>)"""
 
 
-CHOICES = {"eps_schedule": ("time-constant", "reach"), "explore": ("factored", "uniform"),
-           "target_bound": ("none", "return")}
+CHOICES = {
+    "eps_schedule": ("time-constant", "reach"),
+    "explore": ("factored", "uniform"),
+    "target_bound": ("none", "return"),
+}
 LEGACY = {"eps_schedule": "reach", "explore": "uniform", "demo_planner": "internal", "target_bound": "none"}
 """What a checkpoint written before these settings existed was trained with."""
 
@@ -150,8 +154,10 @@ def file_name(value, where, field: str) -> str:
     value came from) and `field`: whatever a file read or an option contains, no output path leaves its folder."""
     text = str(value)
     if not NAME.fullmatch(text):
-        raise DomainError(where, f"{field} {text!r} cannot name an output (letters, digits, '.', '_', '+', '-'; "
-                                 "not starting with a dot)")
+        raise DomainError(
+            where,
+            f"{field} {text!r} cannot name an output (letters, digits, '.', '_', '+', '-'; not starting with a dot)",
+        )
     return text
 
 
@@ -187,9 +193,9 @@ def keep_freed_memory() -> None:
     """
     try:
         libc = ctypes.CDLL("libc.so.6")
-        libc.mallopt(-3, 32 << 20)        # M_MMAP_THRESHOLD: heap, not mmap, below 32 MB
-        libc.mallopt(-1, 1 << 30)         # M_TRIM_THRESHOLD: trim only above 1 GB free
-        libc.mallopt(-2, 64 << 20)        # M_TOP_PAD: grow the heap 64 MB at a time
+        libc.mallopt(-3, 32 << 20)  # M_MMAP_THRESHOLD: heap, not mmap, below 32 MB
+        libc.mallopt(-1, 1 << 30)  # M_TRIM_THRESHOLD: trim only above 1 GB free
+        libc.mallopt(-2, 64 << 20)  # M_TOP_PAD: grow the heap 64 MB at a time
     except (OSError, AttributeError):
         pass
 
@@ -238,8 +244,9 @@ def random_action(actions: np.ndarray, labels: np.ndarray, rng, factored: bool =
     return int(cand[rng.integers(len(cand))]) if len(cand) > 1 else int(cand[0])
 
 
-def demonstrations(model, enc: Encoding, cfg: Config, r_goal: float, scale: float, terminal_reset: bool,
-                   progress: bool = True) -> tuple[Replay, np.ndarray]:
+def demonstrations(
+    model, enc: Encoding, cfg: Config, r_goal: float, scale: float, terminal_reset: bool, progress: bool = True
+) -> tuple[Replay, np.ndarray]:
     """The demo memory: every action transition of the first demo_tasks myopic-oracle outcomes (autos
     store none), and per transition the discounted return the oracle's plan earned from there to its
     task's completion (NaN where the oracle failed): what a myopic Q of the demonstrated action should
@@ -247,6 +254,7 @@ def demonstrations(model, enc: Encoding, cfg: Config, r_goal: float, scale: floa
     if cfg.demo_tasks <= 0:
         return Replay(1, enc.n_words), np.zeros(0)
     from oracles.rollouts import cached_rollout
+
     records = cached_rollout(model, cfg.demo_seed, cfg.demo_tasks, planner=cfg.demo_planner, progress=progress)
     per_reset = model.config.get("stream", {}).get("tasks_per_reset", 50)
     rows, returns = [], []
@@ -276,8 +284,9 @@ def demonstrations(model, enc: Encoding, cfg: Config, r_goal: float, scale: floa
     return demos, np.array(returns)
 
 
-def greedy_evaluation(vf: ValueFunction, model, seed: int, n_tasks: int, gamma: float, r_goal: float,
-                      scale: float) -> dict:
+def greedy_evaluation(
+    vf: ValueFunction, model, seed: int, n_tasks: int, gamma: float, r_goal: float, scale: float
+) -> dict:
     """Success rate, PDDL cost, actions and discounted return per task of the greedy policy on a seeded stream."""
     stream, world = TaskStream(model, seed), PersistentWorld(model)
     returns = []
@@ -292,13 +301,17 @@ def greedy_evaluation(vf: ValueFunction, model, seed: int, n_tasks: int, gamma: 
         while world.task is not None:
             a = int(vf.greedy([world.state], task.index)[0])
             step = world.act(a)
-            g += gamma ** k * step_reward(step.cost, step.completed, scale, r_goal)
+            g += gamma**k * step_reward(step.cost, step.completed, scale, r_goal)
             k += 1
         returns.append(g)
     outs = world.outcomes
     n = len(outs)
-    return {"success_rate": sum(o.success for o in outs) / n, "cost_per_task": sum(o.cost for o in outs) / n,
-            "actions_per_task": sum(o.actions for o in outs) / n, "task_return": float(np.mean(returns))}
+    return {
+        "success_rate": sum(o.success for o in outs) / n,
+        "cost_per_task": sum(o.cost for o in outs) / n,
+        "actions_per_task": sum(o.actions for o in outs) / n,
+        "task_return": float(np.mean(returns)),
+    }
 
 
 class Trainer:
@@ -307,19 +320,24 @@ class Trainer:
     def __init__(self, cfg: Config, progress: bool = True):
         # -- setup: model, encodings, R_goal, seeding --------------------------------------------
         check_config(cfg)
-        torch.set_num_threads(1)            # one thread per run: parallel runs share the cores, not a pool
+        torch.set_num_threads(1)  # one thread per run: parallel runs share the cores, not a pool
         keep_freed_memory()
         self.cfg, self.progress = cfg, progress
         self.model = model = compile_domain(cfg.domain, cfg.layout)
         cfg.layout = model.layout
         self.out = run_folder(cfg, model)
-        cli.check_writable(self.out, folder=True)     # before the demonstrations are planned
+        cli.check_writable(self.out, folder=True)  # before the demonstrations are planned
         cfg.out = str(self.out)
         self.scale = cost_scale(model)
         self.r_goal = float(cfg.goal_reward if cfg.goal_reward is not None else goal_reward(model))
         cfg.goal_reward = self.r_goal
-        self.y_max = None if cfg.target_bound == "none" else \
-            self.r_goal if cfg.horizon == "myopic" else self.r_goal / (1.0 - cfg.gamma)
+        self.y_max = (
+            None
+            if cfg.target_bound == "none"
+            else self.r_goal
+            if cfg.horizon == "myopic"
+            else self.r_goal / (1.0 - cfg.gamma)
+        )
         stream_cfg = model.config.get("stream", {})
         self.terminal_reset = bool(stream_cfg.get("terminal_reset", False))
         self.per_reset = stream_cfg.get("tasks_per_reset", 50)
@@ -329,27 +347,31 @@ class Trainer:
         self.rng = np.random.default_rng(cfg.seed)
         self.enc = Encoding(model)
         self.type_of = self.enc.action_type
-        self.identity = identity(model)        # the domain as it was when the run started, in every checkpoint
+        self.identity = identity(model)  # the domain as it was when the run started, in every checkpoint
 
         # -- Algorithm 1, line 1: replay memory, online and target networks ---------------------
         self.net = build_network(self.enc, cfg.hidden)
         self.target = build_network(self.enc, cfg.hidden)
         self.target.load_state_dict(self.net.state_dict())
-        self.boundary = BoundaryCache()        # target values of replayed completion states, per sync
-        self.opt = FlatAdam(self.net.parameters(), lr=cfg.lr)   # the parameters move into one flat buffer
-        self.greedy = LiveGreedy(self.net)     # acting: the online net's current weights, in numpy
+        self.boundary = BoundaryCache()  # target values of replayed completion states, per sync
+        self.opt = FlatAdam(self.net.parameters(), lr=cfg.lr)  # the parameters move into one flat buffer
+        self.greedy = LiveGreedy(self.net)  # acting: the online net's current weights, in numpy
         self.memory = Replay(cfg.buffer_size, self.enc.n_words)
-        self.demos, self.demo_returns = demonstrations(model, self.enc, cfg, self.r_goal, self.scale,
-                                                       self.terminal_reset, progress)
-        self.slots = SlotCache(self.enc, self.demos.capacity + self.memory.capacity,   # encodings, per slot
-                               self.net.mask_bits)
+        self.demos, self.demo_returns = demonstrations(
+            model, self.enc, cfg, self.r_goal, self.scale, self.terminal_reset, progress
+        )
+        self.slots = SlotCache(
+            self.enc,
+            self.demos.capacity + self.memory.capacity,  # encodings, per slot
+            self.net.mask_bits,
+        )
 
         # -- line 2: the world and the task stream ----------------------------------------------
         self.stream = TaskStream(model, cfg.seed)
         self.world = PersistentWorld(model)
         self.step = 0
         self.tasks_done = 0
-        self.recent = deque(maxlen=100)        # (success, task return) of the last 100 tasks
+        self.recent = deque(maxlen=100)  # (success, task return) of the last 100 tasks
         self.type_counts = np.zeros(len(self.enc.type_names), dtype=np.int64)
         self.stats = {"q": [], "y": [], "loss": []}
         self.best = None
@@ -369,7 +391,7 @@ class Trainer:
         self.recent.append((success, self.task_return))
         self.tasks_done += 1
         self.task_return, self.task_k = 0.0, 0
-        self.world.outcomes.clear()            # outcomes are summarised in `recent`; keep memory flat
+        self.world.outcomes.clear()  # outcomes are summarised in `recent`; keep memory flat
 
     def _next_task(self) -> None:
         """Draw tasks until one is open; an already-satisfied task is the AUTO transition (line 6)."""
@@ -405,12 +427,16 @@ class Trainer:
         if "slots" in batch:
             obs, valid, mb = self.slots.observe(batch)
         else:
-            obs, valid, mb = self.enc.observe(batch["states"], batch["tasks"]), self.enc.valid_for(batch["states"], batch["tasks"]), None
+            obs, valid, mb = (
+                self.enc.observe(batch["states"], batch["tasks"]),
+                self.enc.valid_for(batch["states"], batch["tasks"]),
+                None,
+            )
         masks = None if mb is None else self.net.masks_from_bits(mb)
         q = self.net.q_taken(torch.from_numpy(obs), torch.from_numpy(valid), torch.from_numpy(batch["actions"]), masks)
         loss = F.smooth_l1_loss(q, y)
-        self.opt.zero_grad()       # a parameter the loss does not reach steps with a zero gradient, as in the
-        loss.backward()            # per-head forward, where every head was in every loss (Adam's moments decay)
+        self.opt.zero_grad()  # a parameter the loss does not reach steps with a zero gradient, as in the
+        loss.backward()  # per-head forward, where every head was in every loss (Adam's moments decay)
         t1 = time.process_time()
         self.opt.step(self.cfg.grad_clip)
         if parts is not None:
@@ -441,18 +467,18 @@ class Trainer:
         if self.world.task is None:
             self._next_task()
         state, task = self.world.state, self.world.task.index
-        a = self.act(state, task, eps)                                            # line 5
-        step = self.world.act(a)                                                  # line 6
+        a = self.act(state, task, eps)  # line 5
+        step = self.world.act(a)  # line 6
         r = step_reward(step.cost, step.completed, self.scale, self.r_goal)
-        kind = CONTINUE                                                           # within task or timeout
+        kind = CONTINUE  # within task or timeout
         if step.completed:
             kind = TERMINAL if self._last_in_episode() else COMPLETE
-        self._store(state, task, a, r, self.world.state, kind)                   # line 7
+        self._store(state, task, a, r, self.world.state, kind)  # line 7
         self.type_counts[self.type_of[a]] += 1
-        self.task_return += self.cfg.gamma ** self.task_k * r
+        self.task_return += self.cfg.gamma**self.task_k * r
         self.task_k += 1
         self.step += 1
-        if step.completed or step.abandoned:                                     # lines 21, 25-27
+        if step.completed or step.abandoned:  # lines 21, 25-27
             self._finish_task(step.completed)
             self._next_task()
 
@@ -461,23 +487,31 @@ class Trainer:
         cfg = self.cfg
         if self.world.task is None:
             self._next_task()
-        bar = tqdm(total=cfg.steps, initial=self.step, desc=f"dqn {self.model.layout} {cfg.horizon}",
-                   unit="step", disable=not self.progress, smoothing=0.05)
+        bar = tqdm(
+            total=cfg.steps,
+            initial=self.step,
+            desc=f"dqn {self.model.layout} {cfg.horizon}",
+            unit="step",
+            disable=not self.progress,
+            smoothing=0.05,
+        )
         row, t0, s0, updates = {}, time.perf_counter(), self.step, 0
         while self.step < cfg.steps:
-            self.env_step(epsilon(cfg, self.step))                                # lines 5-7, 21, 25-27
+            self.env_step(epsilon(cfg, self.step))  # lines 5-7, 21, 25-27
             if self.step >= cfg.learning_starts and self.step % cfg.train_every == 0:
-                self.update()                                                     # lines 8-20
+                self.update()  # lines 8-20
                 updates += 1
-            if self.step % cfg.target_every == 0:                                # lines 22-24
+            if self.step % cfg.target_every == 0:  # lines 22-24
                 self.sync_target()
             if self.step % cfg.log_every == 0:
                 dt = time.perf_counter() - t0
-                row = self._log(eps=epsilon(cfg, self.step), steps_per_s=(self.step - s0) / dt,
-                                updates_per_s=updates / dt)
+                row = self._log(
+                    eps=epsilon(cfg, self.step), steps_per_s=(self.step - s0) / dt, updates_per_s=updates / dt
+                )
                 t0, s0, updates = time.perf_counter(), self.step, 0
-                bar.set_postfix(success=f"{row['success_rate']:.2f}", ret=f"{row['task_return']:.1f}",
-                                q=f"{row['selected_q']:.1f}")
+                bar.set_postfix(
+                    success=f"{row['success_rate']:.2f}", ret=f"{row['task_return']:.1f}", q=f"{row['selected_q']:.1f}"
+                )
             if self.step % cfg.eval_every == 0 or self.step == cfg.steps:
                 self._evaluate()
             if self.step % cfg.checkpoint_every == 0 or self.step == cfg.steps:
@@ -492,12 +526,17 @@ class Trainer:
         counts = self.type_counts
         total = max(1, int(counts.sum()))
         mean = lambda xs: float(np.mean(xs)) if xs else float("nan")
-        row = {"step": self.step, "tasks": self.tasks_done,
-               "success_rate": mean([s for s, _ in recent]), "task_return": mean([g for _, g in recent]),
-               "selected_q": mean(self.stats["q"]), "td_target": mean(self.stats["y"]),
-               "loss": mean(self.stats["loss"]),
-               "action_share": {n: round(int(c) / total, 5) for n, c in zip(self.enc.type_names, counts)},
-               **{k: round(v, 4) for k, v in extra.items()}}
+        row = {
+            "step": self.step,
+            "tasks": self.tasks_done,
+            "success_rate": mean([s for s, _ in recent]),
+            "task_return": mean([g for _, g in recent]),
+            "selected_q": mean(self.stats["q"]),
+            "td_target": mean(self.stats["y"]),
+            "loss": mean(self.stats["loss"]),
+            "action_share": {n: round(int(c) / total, 5) for n, c in zip(self.enc.type_names, counts)},
+            **{k: round(v, 4) for k, v in extra.items()},
+        }
         self.type_counts[:] = 0
         self.stats = {"q": [], "y": [], "loss": []}
         self.metrics.parent.mkdir(parents=True, exist_ok=True)
@@ -521,8 +560,15 @@ class Trainer:
 
     def _evaluate(self) -> None:
         self.net.eval()
-        r = greedy_evaluation(ValueFunction(self.net, self.enc), self.model, 10_000 + self.cfg.seed,
-                              self.cfg.eval_tasks, self.cfg.gamma, self.r_goal, self.scale)
+        r = greedy_evaluation(
+            ValueFunction(self.net, self.enc),
+            self.model,
+            10_000 + self.cfg.seed,
+            self.cfg.eval_tasks,
+            self.cfg.gamma,
+            self.r_goal,
+            self.scale,
+        )
         if self.cfg.horizon == "myopic":
             r["demo_q_bias"] = self.demo_q_bias()
         self.net.train()
@@ -532,22 +578,42 @@ class Trainer:
         score = (r["success_rate"], r["task_return"])
         if self.best is None or score > tuple(self.best["score"]):
             self.best = {"score": list(score), "step": self.step, "eval": r}
-            save_checkpoint(self.out / "best.pt", network_payload(
-                self.net, self.enc, {**self.identity, "step": self.step, "eval": r, "config": asdict(self.cfg)}))
+            save_checkpoint(
+                self.out / "best.pt",
+                network_payload(
+                    self.net, self.enc, {**self.identity, "step": self.step, "eval": r, "config": asdict(self.cfg)}
+                ),
+            )
 
     def save(self) -> Path:
         """Everything needed to resume, atomically, in last.pt."""
         w = self.world
-        payload = network_payload(self.net, self.enc, {
-            **self.identity, "config": asdict(self.cfg),
-            "target": self.target.state_dict(), "opt": self.opt.state_dict(),
-            "step": self.step, "tasks_done": self.tasks_done, "recent": list(self.recent),
-            "best": self.best, "task_return": self.task_return, "task_k": self.task_k,
-            "memory": self.memory.state_dict(), "rng": self.rng.bit_generator.state,
-            "stream": {"rng": self.stream.rng.bit_generator.state, "count": self.stream.count},
-            "world": {"state": w.state, "task": None if w.task is None else w.task.index,
-                      "cost": w._cost, "actions": w._actions},
-            "torch_rng": torch.get_rng_state()})
+        payload = network_payload(
+            self.net,
+            self.enc,
+            {
+                **self.identity,
+                "config": asdict(self.cfg),
+                "target": self.target.state_dict(),
+                "opt": self.opt.state_dict(),
+                "step": self.step,
+                "tasks_done": self.tasks_done,
+                "recent": list(self.recent),
+                "best": self.best,
+                "task_return": self.task_return,
+                "task_k": self.task_k,
+                "memory": self.memory.state_dict(),
+                "rng": self.rng.bit_generator.state,
+                "stream": {"rng": self.stream.rng.bit_generator.state, "count": self.stream.count},
+                "world": {
+                    "state": w.state,
+                    "task": None if w.task is None else w.task.index,
+                    "cost": w._cost,
+                    "actions": w._actions,
+                },
+                "torch_rng": torch.get_rng_state(),
+            },
+        )
         return save_checkpoint(self.out / "last.pt", payload)
 
     def resume(self, path) -> None:
@@ -559,7 +625,9 @@ class Trainer:
         for key in ("domain", "layout", "horizon", "seed", "hidden", "goal_reward", "gamma", *LEGACY):
             was = old.get(key, LEGACY.get(key))
             if was != getattr(self.cfg, key):
-                hint = f" (pass --{key.replace('_', '-')} {was} to continue it)" if key in ("goal_reward", *LEGACY) else ""
+                hint = (
+                    f" (pass --{key.replace('_', '-')} {was} to continue it)" if key in ("goal_reward", *LEGACY) else ""
+                )
                 raise DomainError(path, f"was trained with {key}={was!r}, not {getattr(self.cfg, key)!r}{hint}")
         check_domain(path, p, self.model)
         if p["signature"] != self.enc.signature():
@@ -589,8 +657,10 @@ class Trainer:
             return
         rows, torn = read_metrics(self.metrics)
         if torn:
-            print(f"{self.metrics}: dropped a half-written last line (the run was stopped while writing it)",
-                  file=sys.stderr)
+            print(
+                f"{self.metrics}: dropped a half-written last line (the run was stopped while writing it)",
+                file=sys.stderr,
+            )
         steps = [row.get("step", row.get("eval", {}).get("step", 0)) for row in rows]
         bad = next((k for k, at in enumerate(steps) if not isinstance(at, (int, float))), None)
         if bad is not None:
@@ -621,8 +691,7 @@ def read_metrics(path, strict: bool = True) -> tuple[list[dict], bool]:
         elif k == len(lines) - 1:
             return rows, True
         elif strict:
-            raise DomainError(path, f"line {k + 1} is not a metrics row; delete the file or pass --fresh "
-                                    "to start over")
+            raise DomainError(path, f"line {k + 1} is not a metrics row; delete the file or pass --fresh to start over")
     return rows, False
 
 
@@ -641,8 +710,7 @@ def check_config(cfg: Config) -> None:
             raise DomainError(f"--{key.replace('_', '-')}", f"'{getattr(cfg, key)}' is not one of {', '.join(allowed)}")
 
 
-def make_config(domain: str | None = None, layout: str | None = None, horizon: str = "anticipatory",
-                **given) -> Config:
+def make_config(domain: str | None = None, layout: str | None = None, horizon: str = "anticipatory", **given) -> Config:
     """A run's settings: Table A.2, then domain.toml [training] (keyed by layout and horizon), then `given`
     (a None value counts as not given), checked; learning.dqn's command line and a sweep's items alike."""
     domain = domain or Config.domain
@@ -663,8 +731,9 @@ def run_folder(cfg: Config, model) -> Path:
     file_name(model.name, model.files["domain"], "domain name")
     file_name(model.layout, model.files["config"], "layout")
     file_name(cfg.seed, "--seed", "seed")
-    return file_in("runs/dqn", run_name(model.name, {**asdict(cfg), "layout": model.layout}), "--out",
-                   "the default run folder")
+    return file_in(
+        "runs/dqn", run_name(model.name, {**asdict(cfg), "layout": model.layout}), "--out", "the default run folder"
+    )
 
 
 def train_run(cfg: Config, fresh: bool = False, progress: bool = True) -> Trainer:
@@ -681,7 +750,7 @@ def train_run(cfg: Config, fresh: bool = False, progress: bool = True) -> Traine
     check_config(cfg)
     out = run_folder(cfg, compile_domain(cfg.domain, cfg.layout))
     cli.check_writable(out, folder=True)
-    out.mkdir(parents=True, exist_ok=True)      # the lock lives inside the folder: made before it is taken
+    out.mkdir(parents=True, exist_ok=True)  # the lock lives inside the folder: made before it is taken
     with OutputLock(out, "training run"):
         trainer = Trainer(cfg, progress=progress)
         last = trainer.out / "last.pt"
@@ -692,8 +761,11 @@ def train_run(cfg: Config, fresh: bool = False, progress: bool = True) -> Traine
             stale = [p for p in (trainer.metrics, trainer.out / "best.pt", last) if p.is_file()]
             if stale and not fresh:
                 names = ", ".join(p.name for p in stale)
-                print(f"{trainer.out}: no last.pt to resume from; the run starts over ({names} of its earlier "
-                      "start dropped)", file=sys.stderr)
+                print(
+                    f"{trainer.out}: no last.pt to resume from; the run starts over ({names} of its earlier "
+                    "start dropped)",
+                    file=sys.stderr,
+                )
             for p in stale:
                 p.unlink()
         trainer.train()

@@ -3,6 +3,7 @@
 The batched plug-in calls for searches (SPEC "Values as plug-in heuristics") are
 `ValueFunction.q_max(states, task)` and `ValueFunction.v_ap(states)`.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -83,7 +84,6 @@ def _task_index(task) -> int:
     return task if isinstance(task, (int, np.integer)) else task.index
 
 
-
 def load_value_function(path, model) -> ValueFunction:
     """The greedy value of a checkpoint, checked against the layout it is used on."""
     return value_function(read_checkpoint(path), model, path)
@@ -98,8 +98,11 @@ def value_function(payload: dict, model, path="checkpoint") -> ValueFunction:
     mine = enc.signature()
     if sig != mine:
         diff = [k for k in mine if sig.get(k) != mine[k]]
-        raise DomainError(path, f"trained for {sig.get('domain')}/{sig.get('layout')}, "
-                                f"not {mine['domain']}/{mine['layout']} (differs in {', '.join(diff)})")
+        raise DomainError(
+            path,
+            f"trained for {sig.get('domain')}/{sig.get('layout')}, "
+            f"not {mine['domain']}/{mine['layout']} (differs in {', '.join(diff)})",
+        )
     d = payload["dims"]
     net = FactoredQNet(d["obs_dim"], enc.labels, d["vocab_sizes"], d["hidden"], d["embed"], d["head_hidden"])
     try:

@@ -17,6 +17,7 @@ commands use:
 A new value is one module and one row here. Beside the registry: `learning.values.exact` (the exact value
 by value iteration) and `learning.values.rank` (how well a value ranks states by preparedness).
 """
+
 from __future__ import annotations
 
 import importlib
@@ -24,12 +25,21 @@ import importlib
 from planning.errors import DomainError
 
 VALUES = {
-    "q-network": ("learning.q.value", "ValueFunction",
-                  "a learning.dqn checkpoint: q_max = max_a Q(s, τ, a), V_AP = Σ_τ P(τ) max_a Q(s, τ, a)"),
-    "gnn": ("learning.gnn.value", "GNNValue",
-            "a learning.gnn_train checkpoint: V_AP = q_max = -Ĉ_AP / cost_scale, the one-task cost estimate"),
-    "exact": ("learning.values.exact", "ExactValue",
-              "Q* by value iteration over every reachable state (small domains); exact:myopic for that horizon"),
+    "q-network": (
+        "learning.q.value",
+        "ValueFunction",
+        "a learning.dqn checkpoint: q_max = max_a Q(s, τ, a), V_AP = Σ_τ P(τ) max_a Q(s, τ, a)",
+    ),
+    "gnn": (
+        "learning.gnn.value",
+        "GNNValue",
+        "a learning.gnn_train checkpoint: V_AP = q_max = -Ĉ_AP / cost_scale, the one-task cost estimate",
+    ),
+    "exact": (
+        "learning.values.exact",
+        "ExactValue",
+        "Q* by value iteration over every reachable state (small domains); exact:myopic for that horizon",
+    ),
     "zero": ("planning.value", "ZeroValue", "0 everywhere: every terminal ties, so the search plays the cheapest"),
 }
 

@@ -26,6 +26,7 @@ episodes would need the position in the state and are refused.
 [[reset]] choices) by actions and by the consumption of satisfied tasks.
 Meant for small domains (the minimal grid has 100 states); `max_states` guards.
 """
+
 from __future__ import annotations
 
 from collections import deque
@@ -41,9 +42,11 @@ HORIZONS = ("myopic", "anticipatory")
 
 def reset_states(model) -> list[int]:
     """Every world a reset can draw: one state per combination of the [[reset]] choices with P > 0."""
-    entries = [[(c, every) for c, p in zip(choices, probs) if p > 0]
-               for choices, probs in model.resets
-               for every in [_union(choices)]]
+    entries = [
+        [(c, every) for c, p in zip(choices, probs) if p > 0]
+        for choices, probs in model.resets
+        for every in [_union(choices)]
+    ]
     out = []
     for combo in product(*entries):
         s = model.init
@@ -63,9 +66,18 @@ def _union(masks) -> int:
 class ExactValue:
     """q_max and V_AP of the exact Q* by value iteration, for one horizon of a small domain."""
 
-    def __init__(self, model, horizon: str = "anticipatory", gamma: float | None = None,
-                 r_goal: float | None = None, scale: float | None = None, roots=(),
-                 tol: float = 1e-11, max_iter: int = 200_000, max_states: int = 200_000):
+    def __init__(
+        self,
+        model,
+        horizon: str = "anticipatory",
+        gamma: float | None = None,
+        r_goal: float | None = None,
+        scale: float | None = None,
+        roots=(),
+        tol: float = 1e-11,
+        max_iter: int = 200_000,
+        max_states: int = 200_000,
+    ):
         if horizon not in HORIZONS:
             raise DomainError("horizon", f"'{horizon}' is neither myopic nor anticipatory")
         self.model, self.horizon = model, horizon
@@ -73,7 +85,9 @@ class ExactValue:
         self.r_goal = float(r_goal if r_goal is not None else goal_reward(model))
         self.scale = float(scale if scale is not None else cost_scale(model))
         if not 0 <= self.gamma < 1:
-            raise DomainError(model.files.get("config", model.name), f"value iteration needs gamma < 1, not {self.gamma}")
+            raise DomainError(
+                model.files.get("config", model.name), f"value iteration needs gamma < 1, not {self.gamma}"
+            )
         self.tasks = list(model.tasks)
         p = np.asarray(model.tasks.probabilities, dtype=float)
         self.p = p / p.sum()
@@ -102,15 +116,19 @@ class ExactValue:
             return np.ones(m, dtype=bool)
         first = stream.get("first_task")
         if stream.get("tasks_per_reset") != 2 or not first:
-            raise DomainError(self.model.files.get("config", self.model.name),
-                              "exact values of terminal episodes need tasks_per_reset = 2 and a first_task "
-                              "(a task's position in the episode is otherwise not known from the task)")
+            raise DomainError(
+                self.model.files.get("config", self.model.name),
+                "exact values of terminal episodes need tasks_per_reset = 2 and a first_task "
+                "(a task's position in the episode is otherwise not known from the task)",
+            )
         first = self.model.tasks.get(first)
         if self.p[first.index] > 0:
-            raise DomainError(self.model.files.get("config", self.model.name),
-                              f"first task {first.name} is also drawn from P: its value depends on its position")
+            raise DomainError(
+                self.model.files.get("config", self.model.name),
+                f"first task {first.name} is also drawn from P: its value depends on its position",
+            )
         out = np.zeros(m, dtype=bool)
-        out[first.index] = True        # the first task bootstraps V_AP over the (terminal) drawn tasks
+        out[first.index] = True  # the first task bootstraps V_AP over the (terminal) drawn tasks
         return out
 
     def _enumerate(self, roots: list, max_states: int) -> None:
@@ -142,8 +160,10 @@ class ExactValue:
         n, m = len(states), len(tasks)
         self.states, self.index = states, index
         self.sat = np.array([[t.satisfied(s) for t in tasks] for s in states], dtype=bool).reshape(n, m)
-        self.cons = np.array([[index[t.consume(s)] if self.sat[i, k] else i for k, t in enumerate(tasks)]
-                              for i, s in enumerate(states)], dtype=np.int64).reshape(n, m)
+        self.cons = np.array(
+            [[index[t.consume(s)] if self.sat[i, k] else i for k, t in enumerate(tasks)] for i, s in enumerate(states)],
+            dtype=np.int64,
+        ).reshape(n, m)
         order = np.argsort(np.asarray(src, dtype=np.int64), kind="stable")
         self.src = np.asarray(src, dtype=np.int64)[order]
         self.dst = np.asarray(dst, dtype=np.int64)[order]
@@ -153,7 +173,9 @@ class ExactValue:
         dead = ~has[:, None] & ~self.sat
         if dead.any():
             i, k = map(int, np.argwhere(dead)[0])
-            raise DomainError(tasks[k].name, f"a reachable state has no applicable action:\n{model.describe(states[i])}")
+            raise DomainError(
+                tasks[k].name, f"a reachable state has no applicable action:\n{model.describe(states[i])}"
+            )
         self.starts = np.flatnonzero(np.r_[True, self.src[1:] != self.src[:-1]]) if len(self.src) else np.zeros(0, int)
         self.rows = self.src[self.starts]
 
@@ -164,7 +186,7 @@ class ExactValue:
 
     def _backup(self, V: np.ndarray) -> np.ndarray:
         done = self._completion(V)
-        nxt = np.where(self.sat[self.dst], done[self.dst], self.gamma * V[self.dst])       # (E, m)
+        nxt = np.where(self.sat[self.dst], done[self.dst], self.gamma * V[self.dst])  # (E, m)
         q = self.reward[:, None] + nxt
         out = np.full(V.shape, -np.inf)
         if len(q):
@@ -190,8 +212,9 @@ class ExactValue:
         try:
             return np.fromiter((self.index[s] for s in states), dtype=np.int64, count=len(states))
         except KeyError as e:
-            raise DomainError(self.model.name, f"state {e.args[0]:#x} is not reachable from a reset "
-                                               f"(pass it in roots=)") from None
+            raise DomainError(
+                self.model.name, f"state {e.args[0]:#x} is not reachable from a reset (pass it in roots=)"
+            ) from None
 
     def q_max(self, states, task) -> np.ndarray:
         """max_a Q*(s, τ, a) per state (AUTO's value where τ already holds)."""

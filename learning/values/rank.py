@@ -24,6 +24,7 @@ agree state by state; a value that ranks prepared states below unprepared ones
 on a whole kind of states does not know that preparation. A GNN checkpoint
 trained on these states is scored on its validation split only.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -47,10 +48,13 @@ def agreement(v: np.ndarray, c_ap: np.ndarray) -> dict:
     if len(v) < 3:
         return {"states": int(len(v))}
     slope = np.polyfit(-c_ap, v, 1)[0]
-    return {"states": int(len(v)), "spearman": round(float(stats.spearmanr(v, -c_ap)[0]), 4),
-            "kendall": round(float(stats.kendalltau(v, -c_ap)[0]), 4),
-            "pair_agreement": round(pair_agreement(v, -c_ap), 4),
-            "slope_rl_per_pddl": round(float(slope), 5)}
+    return {
+        "states": int(len(v)),
+        "spearman": round(float(stats.spearmanr(v, -c_ap)[0]), 4),
+        "kendall": round(float(stats.kendalltau(v, -c_ap)[0]), 4),
+        "pair_agreement": round(pair_agreement(v, -c_ap), 4),
+        "slope_rl_per_pddl": round(float(slope), 5),
+    }
 
 
 def rank(values: list, data: str, domain: str) -> dict:
@@ -69,9 +73,15 @@ def rank(values: list, data: str, domain: str) -> dict:
     check_made_for(meta_path, meta, model, "dataset")
     states = [model.state_from_atoms(a) for a in atoms]
     kinds = np.asarray(meta.get("kinds") or ["all"] * len(states))
-    out = {"data": data, "domain": model.name, "layout": model.layout, "cost_scale": model.cost_scale,
-           "states": len(states), "kinds": {k: int((kinds == k).sum()) for k in dict.fromkeys(kinds.tolist())},
-           "values": []}
+    out = {
+        "data": data,
+        "domain": model.name,
+        "layout": model.layout,
+        "cost_scale": model.cost_scale,
+        "states": len(states),
+        "kinds": {k: int((kinds == k).sum()) for k in dict.fromkeys(kinds.tolist())},
+        "values": [],
+    }
     for value in values:
         name = str(value) if isinstance(value, (str, Path)) else type(value).__name__
         if isinstance(value, (str, Path)):
@@ -81,6 +91,7 @@ def rank(values: list, data: str, domain: str) -> dict:
         payload = getattr(value, "payload", None)
         if payload is not None and Path(payload.get("config", {}).get("data", "")).resolve() == Path(data).resolve():
             from learning.gnn.training import split
+
             cfg = payload["config"]
             _, val = split(len(states), int(cfg.get("seed", 0)), float(cfg.get("val_fraction", 0.2)))
             only = np.zeros(len(states), dtype=bool)
@@ -90,18 +101,28 @@ def rank(values: list, data: str, domain: str) -> dict:
         idx = np.flatnonzero(keep)
         v = np.asarray(value.v_ap([states[i] for i in idx]), dtype=float)
         row["all"] = agreement(v, labels[idx])
-        row["by_kind"] = {k: agreement(v[kinds[idx] == k], labels[idx][kinds[idx] == k])
-                          for k in out["kinds"] if len(out["kinds"]) > 1}
+        row["by_kind"] = {
+            k: agreement(v[kinds[idx] == k], labels[idx][kinds[idx] == k])
+            for k in out["kinds"]
+            if len(out["kinds"]) > 1
+        }
         out["values"].append(row)
     return out
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0], layout=False,
-                   helps={"out": "results JSON (default: results/value-rank-<dataset folder name>.json)"})
+    p = cli.parser(
+        __doc__.splitlines()[0],
+        layout=False,
+        helps={"out": "results JSON (default: results/value-rank-<dataset folder name>.json)"},
+    )
     p.add_argument("--data", required=True, help="a learning.gnn_dataset folder (states labelled with exact C_AP)")
-    p.add_argument("--value", action="append", required=True,
-                   help=f"{HELP}; a bare PATH is a Q-network or GNN checkpoint (repeatable)")
+    p.add_argument(
+        "--value",
+        action="append",
+        required=True,
+        help=f"{HELP}; a bare PATH is a Q-network or GNN checkpoint (repeatable)",
+    )
 
     def run():
         args = p.parse_args()
@@ -112,9 +133,11 @@ def main() -> None:
         write_json(out, {**r, "provenance": results_provenance({})})
         for row in r["values"]:
             a = row["all"]
-            print(f"{row['value']}: Spearman {a['spearman']}, Kendall {a['kendall']}, pairs ordered right "
-                  f"{a['pair_agreement']:.1%}, slope {a['slope_rl_per_pddl']} RL/PDDL over {a['states']} states"
-                  + "".join(f" | {k}: Spearman {b.get('spearman')}" for k, b in row["by_kind"].items()))
+            print(
+                f"{row['value']}: Spearman {a['spearman']}, Kendall {a['kendall']}, pairs ordered right "
+                f"{a['pair_agreement']:.1%}, slope {a['slope_rl_per_pddl']} RL/PDDL over {a['states']} states"
+                + "".join(f" | {k}: Spearman {b.get('spearman')}" for k, b in row["by_kind"].items())
+            )
         print(f"wrote {out}")
 
     cli.run(run)

@@ -10,6 +10,7 @@ same stratum or above it, one that depends on it negatively strictly above, so e
 stratum's fixpoint reads the lower strata's atoms as already final. A domain whose
 axioms are not stratified (p depends negatively on itself) is refused.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -36,7 +37,7 @@ class Axioms:
                 for rule in pending:
                     pos, neg, head = rule
                     if state & head:
-                        continue                      # already derived: the rule adds nothing more
+                        continue  # already derived: the rule adds nothing more
                     if state & pos == pos and not state & neg:
                         state |= head
                         fired = True
@@ -53,7 +54,7 @@ def stratify(src, rules: list) -> list:
     GroundVariants); a one-line error naming the predicate and the line where the axioms are not stratified."""
     derived = set(src.derived)
     level = {p: 0 for p in derived}
-    edges = []                     # (head predicate, body predicate, strict, line)
+    edges = []  # (head predicate, body predicate, strict, line)
     for r, line in rules:
         head = next(iter(r.add))[0]
         edges += [(head, a[0], False, line) for a in r.pos if a[0] in derived]
@@ -65,8 +66,11 @@ def stratify(src, rules: list) -> list:
             need = level[body] + (1 if strict else 0)
             if level[head] < need:
                 if need > len(derived):
-                    raise DomainError(f"{src.domain_file}:{line}", f"derived predicate {head} depends negatively "
-                                      f"on itself (through {body}): the axioms are not stratified")
+                    raise DomainError(
+                        f"{src.domain_file}:{line}",
+                        f"derived predicate {head} depends negatively "
+                        f"on itself (through {body}): the axioms are not stratified",
+                    )
                 level[head] = need
                 changed = True
         if not changed:
@@ -80,7 +84,7 @@ def stratify(src, rules: list) -> list:
 class BatchedAxioms:
     """The same rules over a (N, W) uint64 batch of packed states: `derive(batch)` recomputes every derived atom."""
 
-    CELLS = 1 << 22               # states x rules x words per numpy pass
+    CELLS = 1 << 22  # states x rules x words per numpy pass
 
     def __init__(self, axioms: Axioms, pack):
         """`pack(masks) -> (K, W)` packs int masks as the batched model does."""
@@ -94,15 +98,15 @@ class BatchedAxioms:
         for pos, neg, head in self.strata:
             step = max(1, self.CELLS // max(1, pos.shape[0] * pos.shape[1]))
             for lo in range(0, len(out), step):
-                part = out[lo: lo + step]
+                part = out[lo : lo + step]
                 while True:
                     s = part[:, None, :]
-                    fire = ((s & pos[None]) == pos[None]).all(-1) & ((s & neg[None]) == 0).all(-1)   # (n, R)
+                    fire = ((s & pos[None]) == pos[None]).all(-1) & ((s & neg[None]) == 0).all(-1)  # (n, R)
                     new = part | np.bitwise_or.reduce(np.where(fire[..., None], head[None], np.uint64(0)), axis=1)
                     if (new == part).all():
                         break
                     part = new
-                out[lo: lo + step] = part
+                out[lo : lo + step] = part
         return out
 
 

@@ -6,6 +6,7 @@ tests every variant of every ground action on every state; effects are indexed
 by ground action (all variants of an action share them). Derived atoms are
 recomputed after each step by the batched axioms (planning.domain.axioms).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -44,11 +45,12 @@ class BatchedModel:
         C = max((len(o.cond) for o in effects), default=0)
         if C:
             pad = lambda o, k: [c[k] for c in o.cond] + [0] * (C - len(o.cond))
-            self.cond = [np.array([[_words(m, W) for m in pad(o, k)] for o in effects], dtype=np.uint64)
-                         for k in range(4)]    # pos, neg, add, dele: (A, C, W) each
+            self.cond = [
+                np.array([[_words(m, W) for m in pad(o, k)] for o in effects], dtype=np.uint64) for k in range(4)
+            ]  # pos, neg, add, dele: (A, C, W) each
         # A state may satisfy two variants of one action: keep the first only.
         first_variant: dict[int, int] = {}
-        self._later = []   # (variant, first variant of its action)
+        self._later = []  # (variant, first variant of its action)
         for v, a in enumerate(model.op_action):
             if a in first_variant:
                 self._later.append((v, first_variant[a]))
@@ -59,9 +61,10 @@ class BatchedModel:
         # atom holds (the same index as Model.successors uses).
         self._groups = [(t, np.array(vs, dtype=np.int64)) for t, vs in model.trigger_groups().items()]
         self._first_of = {v: f for v, f in self._later}
-        self.derive = None            # BatchedAxioms where the domain has derived predicates
+        self.derive = None  # BatchedAxioms where the domain has derived predicates
         if getattr(model, "axioms", None) is not None:
             from planning.domain.axioms import BatchedAxioms
+
             self.derive = BatchedAxioms(model.axioms, self.pack)
 
     # ---- packing ---------------------------------------------------------
@@ -93,7 +96,7 @@ class BatchedModel:
         tmp = np.empty_like(violated)
         for w in range(self.n_words):
             s = batch[:, w, None]
-            np.bitwise_and(~s, pos[None, :, w], out=tmp)   # required but false
+            np.bitwise_and(~s, pos[None, :, w], out=tmp)  # required but false
             violated |= tmp
             if w in self._neg_words:
                 np.bitwise_and(s, neg[None, :, w], out=tmp)  # forbidden but true
@@ -131,7 +134,7 @@ class BatchedModel:
         They come grouped by trigger atom, then by parent, then by variant. `keyed` adds two arrays
         that give that order ((group, parent, position in the group) sorts them): the successors of
         a batch cut into chunks, so sorted, come in the order of one call over the whole batch."""
-        bits = self.to_bits(batch).T.copy()              # (atoms, N): a row per atom
+        bits = self.to_bits(batch).T.copy()  # (atoms, N): a row per atom
         parents, variants, groups, places = [], [], [], []
         for k, (trigger, vs) in enumerate(self._groups):
             rows = np.flatnonzero(bits[trigger]) if trigger >= 0 else np.arange(len(batch))
@@ -148,7 +151,7 @@ class BatchedModel:
         variant = np.concatenate(variants) if variants else empty
         group = np.concatenate(groups) if groups else empty
         place = np.concatenate(places) if places else empty
-        if self._later:   # drop a later variant where its action's first variant applies too
+        if self._later:  # drop a later variant where its action's first variant applies too
             dup = np.zeros(len(variant), dtype=bool)
             for v, first in self._later:
                 sel = np.flatnonzero(variant == v)

@@ -10,6 +10,7 @@ action its (increase (total-cost) ...) effect, a number or a static function of 
 problem, 0 where it has none (PDDL's and Fast Downward's reading); a domain without it
 charges every action 1, so a cost is a plan length.
 """
+
 from __future__ import annotations
 
 from functools import lru_cache
@@ -32,6 +33,7 @@ def compile_domain(folder: str | Path = DEFAULT_DOMAIN, layout: str | None = Non
     folder = Path(folder)
     if layout is None:
         from planning.domain.folder import layouts
+
         names = layouts(folder)
         if not names:
             raise DomainError(folder / "domain.toml", "declares no [layouts]")
@@ -62,29 +64,36 @@ def compile_source(src: DomainSource) -> Model:
             changed = _effect_predicates(schema.effects)
             if changed & set(src.derived):
                 where = src.domain_file if kind == "action" else src.tasks_file
-                raise DomainError(where, f"{kind} {schema.name} changes derived predicate "
-                                         f"{sorted(changed & set(src.derived))[0]}: a derived predicate follows "
-                                         "from the other atoms, no effect may set it")
+                raise DomainError(
+                    where,
+                    f"{kind} {schema.name} changes derived predicate "
+                    f"{sorted(changed & set(src.derived))[0]}: a derived predicate follows "
+                    "from the other atoms, no effect may set it",
+                )
             fluents |= changed
     fluents |= set(src.derived)
     grounder = Grounder(src.problem, fluents, src.domain_file, src.derived)
 
     variants = [v for schema in src.actions.values() for v in grounder.ground_schema(schema)]
-    rules = _ground_axioms(src, grounder)               # [(GroundVariant adding the head, line)]
-    tasks_raw = compile_tasks(src, grounder)           # [(TaskSpec, [GroundVariant])]
+    rules = _ground_axioms(src, grounder)  # [(GroundVariant adding the head, line)]
+    tasks_raw = compile_tasks(src, grounder)  # [(TaskSpec, [GroundVariant])]
     init = set()
     for a in src.problem.init.as_atoms():
         if hasattr(a, "predicate") and a.predicate.name in fluents:
             key = grounder.ground_atom(a, {})
             if key[0] in src.derived:
-                raise DomainError(src.problem_file, f"{atom_text(key)} in :init: {key[0]} is a derived predicate, "
-                                                    "it follows from the other atoms")
+                raise DomainError(
+                    src.problem_file,
+                    f"{atom_text(key)} in :init: {key[0]} is a derived predicate, it follows from the other atoms",
+                )
             init.add(key)
     resets = _reset_choices(src, grounder, fluents)
 
     task_variants = [v for _, vs in tasks_raw for v in vs]
-    reach = _relaxed_reachable(init | {a for choices, _ in resets for c in choices for a in c},
-                               variants + task_variants + [r for r, _ in rules])
+    reach = _relaxed_reachable(
+        init | {a for choices, _ in resets for c in choices for a in c},
+        variants + task_variants + [r for r, _ in rules],
+    )
     preds = {p.name: i for i, p in enumerate(src.problem.language.predicates)}
     obj_rank = {o: i for i, o in enumerate(grounder.objects)}
     atoms = sorted(reach, key=lambda k: (preds.get(k[0], 0), [obj_rank[o] for o in k[1:]]))
@@ -100,8 +109,10 @@ def compile_source(src: DomainSource) -> Model:
     axioms = None
     if src.derived:
         strata = stratify(src, [(r, line) for r, line in rules if r.pos <= reach])
-        axioms = Axioms([[(mask(r.pos), mask(r.neg), mask(r.add)) for r in stratum] for stratum in strata],
-                        mask(a for a in atoms if a[0] in src.derived))
+        axioms = Axioms(
+            [[(mask(r.pos), mask(r.neg), mask(r.add)) for r in stratum] for stratum in strata],
+            mask(a for a in atoms if a[0] in src.derived),
+        )
 
     def op(v: GroundVariant) -> Op | None:
         if not v.pos <= reach:
@@ -125,20 +136,32 @@ def compile_source(src: DomainSource) -> Model:
         op_action.append(seen[v.name])
 
     model = Model(
-        name=src.name, layout=src.layout, folder=src.folder, config=src.config,
-        atoms=atoms, actions=names, action_schema=schemas, action_args=args,
-        action_cost=costs, ops=ops, op_action=op_action,
+        name=src.name,
+        layout=src.layout,
+        folder=src.folder,
+        config=src.config,
+        atoms=atoms,
+        actions=names,
+        action_schema=schemas,
+        action_args=args,
+        action_cost=costs,
+        ops=ops,
+        op_action=op_action,
         init=mask(init) if axioms is None else axioms(mask(init)),
-        objects=grounder.objects, objects_of=grounder.objects_of,
-        schema_params={n: [(p.symbol, p.sort.name) for p in s.parameters]
-                       for n, s in src.actions.items()},
+        objects=grounder.objects,
+        objects_of=grounder.objects_of,
+        schema_params={n: [(p.symbol, p.sort.name) for p in s.parameters] for n, s in src.actions.items()},
         resets=[([mask(c) for c in choices], probs) for choices, probs in resets],
-        files={"domain": src.domain_file, "tasks": src.tasks_file, "problem": src.problem_file,
-               "config": src.folder / "domain.toml"},
+        files={
+            "domain": src.domain_file,
+            "tasks": src.tasks_file,
+            "problem": src.problem_file,
+            "config": src.folder / "domain.toml",
+        },
         axioms=axioms,
     )
     model.attach_tasks([(spec, [o for o in map(op, vs) if o is not None]) for spec, vs in tasks_raw])
-    model.source = src                      # the tarski schemas, for writing PDDL back out
+    model.source = src  # the tarski schemas, for writing PDDL back out
     model.static_atoms = frozenset(grounder.static)
     return model
 
@@ -158,7 +181,7 @@ def _relaxed_reachable(start: set, variants: list[GroundVariant]) -> set:
                     reach |= new
                     changed = True
                 if any(not p <= reach for p, *_ in v.cond):
-                    rest.append(v)   # a conditional add may still become reachable
+                    rest.append(v)  # a conditional add may still become reachable
             else:
                 rest.append(v)
         pending = rest

@@ -9,6 +9,7 @@ with more slots first. For the restaurant this gives Table A.1's
 (type, object1, location, object2). Every head has a *none* value, used where a
 type does not take that argument.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -22,9 +23,9 @@ NONE = "none"
 
 @dataclass
 class FactoredActions:
-    heads: list             # head names, "type" first
-    vocab: list             # per head, its values; the last one is NONE (except for "type")
-    labels: np.ndarray      # (ground actions, heads) value index per head
+    heads: list  # head names, "type" first
+    vocab: list  # per head, its values; the last one is NONE (except for "type")
+    labels: np.ndarray  # (ground actions, heads) value index per head
 
     def label(self, action: int) -> tuple:
         """The readable factored label of a ground action, e.g. ('pick', 'cup_0', 'none', 'none')."""
@@ -36,8 +37,11 @@ class FactoredActions:
         for a in model.applicable(state):
             key = tuple(self.labels[a].tolist())
             if key in out:
-                raise DomainError(model.actions[a], f"shares its factored label with {model.actions[out[key]]}: "
-                                  "add the distinguishing parameter to [heads] in domain.toml")
+                raise DomainError(
+                    model.actions[a],
+                    f"shares its factored label with {model.actions[out[key]]}: "
+                    "add the distinguishing parameter to [heads] in domain.toml",
+                )
             out[key] = a
         return out
 
@@ -75,7 +79,7 @@ def factored_actions(model) -> FactoredActions:
             count[fam] = count.get(fam, 0) + 1
         for fam, k in count.items():
             slots[fam] = max(slots.get(fam, 0), k)
-    families = sorted(slots, key=lambda f: -slots[f])   # stable: first seen wins ties
+    families = sorted(slots, key=lambda f: -slots[f])  # stable: first seen wins ties
     order = [(fam, k) for k in range(max(slots.values(), default=0)) for fam in families if k < slots[fam]]
     heads = ["type"] + [fam if slots[fam] == 1 else f"{fam}{k + 1}" for fam, k in order]
     vocab = [schemas] + [model.objects_of(fam) + [NONE] for fam, _ in order]

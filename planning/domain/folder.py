@@ -11,6 +11,7 @@ A domain folder holds no Python. Its files:
                 coordinates, the factored-action heads, stream and reward settings;
                 [layouts.<name>] may override tasks, resets and coordinates for its layout
 """
+
 from __future__ import annotations
 
 import tomllib
@@ -35,14 +36,14 @@ class DomainSource:
     domain_file: Path
     tasks_file: Path
     problem_file: Path
-    config: dict                    # domain.toml with the layout's overrides applied (layout_config)
-    problem: object                 # tarski Problem: language, init, goal
-    actions: dict[str, Action]      # domain action schemas, in file order
+    config: dict  # domain.toml with the layout's overrides applied (layout_config)
+    problem: object  # tarski Problem: language, init, goal
+    actions: dict[str, Action]  # domain action schemas, in file order
     task_schemas: dict[str, Action]  # task schemas, in file order
-    domain_name: str = ""           # the PDDL `(define (domain NAME))`: the domain's name everywhere
+    domain_name: str = ""  # the PDDL `(define (domain NAME))`: the domain's name everywhere
     derived: dict = field(default_factory=dict)  # derived predicate -> [(Action, line)]: its axioms, in file order
-    domain_constants: tuple = ()    # the objects domain.pddl declares under :constants
-    action_costs: bool = True       # the domain declares (total-cost): costs from its effects, else 1 each
+    domain_constants: tuple = ()  # the objects domain.pddl declares under :constants
+    action_costs: bool = True  # the domain declares (total-cost): costs from its effects, else 1 each
 
     @property
     def name(self) -> str:
@@ -88,14 +89,16 @@ def layout_config(config: dict, layout: str, where) -> dict:
     if "tasks" in own:
         tasks = own["tasks"]
         if not isinstance(tasks, dict):
-            raise DomainError(where, f"[layouts.{layout}] tasks is {tasks!r}, not a table of [layouts.{layout}.tasks.<type>]")
+            raise DomainError(
+                where, f"[layouts.{layout}] tasks is {tasks!r}, not a table of [layouts.{layout}.tasks.<type>]"
+            )
         merged = {k: dict(v) if isinstance(v, dict) else v for k, v in config.get("tasks", {}).items()}
         for ttype, entry in tasks.items():
             if not isinstance(entry, dict):
                 raise DomainError(where, f"[layouts.{layout}.tasks.{ttype}] is {entry!r}, not a table")
             base = merged.setdefault(ttype, {})
             if not isinstance(base, dict):
-                continue                       # tasks.check_entry reports the global entry
+                continue  # tasks.check_entry reports the global entry
             for key, value in entry.items():
                 if key == "arguments" and isinstance(value, dict) and isinstance(base.get("arguments"), dict):
                     base["arguments"] = {**base["arguments"], **value}
@@ -104,7 +107,9 @@ def layout_config(config: dict, layout: str, where) -> dict:
         out["tasks"] = merged
     if "reset" in own:
         if not isinstance(own["reset"], list):
-            raise DomainError(where, f"[layouts.{layout}] reset is {own['reset']!r}, not a list of [[layouts.{layout}.reset]] entries")
+            raise DomainError(
+                where, f"[layouts.{layout}] reset is {own['reset']!r}, not a list of [[layouts.{layout}.reset]] entries"
+            )
         out["reset"] = own["reset"]
     if "coordinates" in own:
         coords = own["coordinates"]
@@ -210,12 +215,16 @@ def read_domain(folder: str | Path, layout: str) -> DomainSource:
             actions[name] = action
     for pred, axioms in derived.items():
         if not lang.has_predicate(pred):
-            raise DomainError(f"{domain_file}:{axioms[0][1]}", f"derived predicate {pred} is not declared under :predicates")
+            raise DomainError(
+                f"{domain_file}:{axioms[0][1]}", f"derived predicate {pred} is not declared under :predicates"
+            )
         arity = lang.get_predicate(pred).arity
         for action, line in axioms:
             if len(action.parameters) != arity:
-                raise DomainError(f"{domain_file}:{line}", f"derived predicate {pred} takes {arity} arguments, "
-                                                          f"its :derived names {len(action.parameters)}")
+                raise DomainError(
+                    f"{domain_file}:{line}",
+                    f"derived predicate {pred} takes {arity} arguments, its :derived names {len(action.parameters)}",
+                )
     reader.problem.actions.clear()
     reader.problem.actions.update(actions)
     problem = _parse(reader, problem_file, "problem", domain=domain_name)
@@ -227,5 +236,18 @@ def read_domain(folder: str | Path, layout: str) -> DomainSource:
     reader.problem.actions.clear()
     reader.problem.actions.update(actions)
     reader.problem.domain_name = domain_name
-    return DomainSource(folder, layout, domain_file, tasks_file, problem_file, config,
-                        problem, actions, task_schemas, domain_name, derived, domain_constants, action_costs)
+    return DomainSource(
+        folder,
+        layout,
+        domain_file,
+        tasks_file,
+        problem_file,
+        config,
+        problem,
+        actions,
+        task_schemas,
+        domain_name,
+        derived,
+        domain_constants,
+        action_costs,
+    )

@@ -5,6 +5,7 @@ problem's :init during grounding, so ground preconditions mention fluents only.
 A precondition with a disjunction grounds into several *variants* of one ground
 action: same name, same effects, one conjunctive precondition each.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -25,7 +26,7 @@ from tarski.syntax.formulas import (
 from planning.errors import DomainError
 
 AtomKey = tuple  # ("at", "cup_0", "countertop")
-Conj = tuple     # (frozenset of positive AtomKeys, frozenset of negative AtomKeys)
+Conj = tuple  # (frozenset of positive AtomKeys, frozenset of negative AtomKeys)
 TRUE: list = [(frozenset(), frozenset())]
 FALSE: list = []
 
@@ -52,11 +53,11 @@ def parse_atom_text(text: str) -> AtomKey:
 class GroundVariant:
     """One conjunctive way to apply a ground schema."""
 
-    name: str                         # "move(countertop, fountain)"
+    name: str  # "move(countertop, fountain)"
     schema: str
-    args: tuple                       # object names, in parameter order
-    pos: frozenset                    # precondition atoms that must hold
-    neg: frozenset                    # precondition atoms that must not hold
+    args: tuple  # object names, in parameter order
+    pos: frozenset  # precondition atoms that must hold
+    neg: frozenset  # precondition atoms that must not hold
     add: frozenset = frozenset()
     dele: frozenset = frozenset()
     cond: list = field(default_factory=list)  # [(pos, neg, add, dele)]: conditional effects
@@ -72,17 +73,20 @@ class Grounder:
         self.language = problem.language
         self.fluents = fluent_predicates
         self.objects = [c.name for c in self.language.constants()]
-        self.static = {(a.predicate.name, *(t.name for t in a.subterms))
-                       for a in problem.init.as_atoms()
-                       if isinstance(a, Atom) and a.predicate.name not in fluent_predicates}
+        self.static = {
+            (a.predicate.name, *(t.name for t in a.subterms))
+            for a in problem.init.as_atoms()
+            if isinstance(a, Atom) and a.predicate.name not in fluent_predicates
+        }
         self._parents = self.language.immediate_parent
         self._by_sort: dict[str, list[str]] = {}
 
     def objects_of(self, sort_name: str) -> list[str]:
         """Objects of a type (its subtypes included), in the problem's declaration order."""
         if sort_name not in self._by_sort:
-            self._by_sort[sort_name] = [c.name for c in self.language.constants()
-                                        if self._is_subsort(c.sort, sort_name)]
+            self._by_sort[sort_name] = [
+                c.name for c in self.language.constants() if self._is_subsort(c.sort, sort_name)
+            ]
         return self._by_sort[sort_name]
 
     def _is_subsort(self, sort, name: str) -> bool:
@@ -151,8 +155,7 @@ class Grounder:
         """Every variant of every binding of a schema; `fixed` pins some parameters."""
         fixed = fixed or {}
         params = list(schema.parameters)
-        domains = [[fixed[p.symbol]] if p.symbol in fixed else self.objects_of(p.sort.name)
-                   for p in params]
+        domains = [[fixed[p.symbol]] if p.symbol in fixed else self.objects_of(p.sort.name) for p in params]
         variants = []
         for values in product(*domains):
             binding = {p.symbol: v for p, v in zip(params, values)}
@@ -162,8 +165,7 @@ class Grounder:
             add, dele, cond = self._effects(schema.effects, binding)
             name = f"{schema.name}({', '.join(values)})"
             for pos, neg in pre:
-                variants.append(GroundVariant(name, schema.name, tuple(values), pos, neg,
-                                              add, dele, cond))
+                variants.append(GroundVariant(name, schema.name, tuple(values), pos, neg, add, dele, cond))
         return variants
 
     def _effects(self, effects, binding):
@@ -187,8 +189,14 @@ class Grounder:
                 if not pos and not neg:
                     (add if is_add else dele).add(key)
                 else:
-                    cond.append((pos, neg, frozenset([key]) if is_add else frozenset(),
-                                 frozenset() if is_add else frozenset([key])))
+                    cond.append(
+                        (
+                            pos,
+                            neg,
+                            frozenset([key]) if is_add else frozenset(),
+                            frozenset() if is_add else frozenset([key]),
+                        )
+                    )
         return frozenset(add), frozenset(dele), cond
 
 

@@ -13,6 +13,7 @@ a reformatting changes nothing, less the tool settings of `SETTINGS_TABLES`: [tr
 [search], [gnn]); another layout's problem file is not part of it. The canonical
 sequences are checked task by task where they are used.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -42,7 +43,7 @@ def _digests(files: tuple, stamp: tuple) -> tuple[str, dict]:
     for path in files:
         path = Path(path)
         data = path.read_bytes()
-        if path.suffix == ".toml":          # its content, not its layout: a comment changes nothing
+        if path.suffix == ".toml":  # its content, not its layout: a comment changes nothing
             table = {k: v for k, v in tomllib.loads(data.decode()).items() if k not in SETTINGS_TABLES}
             data = json.dumps(table, sort_keys=True, default=str).encode()
         parts[path.name] = _digest(data)

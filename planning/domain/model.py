@@ -6,6 +6,7 @@ adds win, as in PDDL), plus its conditional effects evaluated in the old state.
 In a domain with derived predicates their atoms are bits too, recomputed by the
 layout's axioms (planning.domain.axioms) after every step, consumption and reset.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -26,7 +27,7 @@ class Op(NamedTuple):
     neg: int
     add: int
     dele: int
-    cond: tuple = ()   # ((pos, neg, add, dele), ...) evaluated in the state before
+    cond: tuple = ()  # ((pos, neg, add, dele), ...) evaluated in the state before
 
     def applicable(self, state: int) -> bool:
         return state & self.pos == self.pos and not state & self.neg
@@ -48,23 +49,23 @@ class Model:
     layout: str
     folder: Path
     config: dict
-    atoms: list                 # AtomKey per bit
-    actions: list               # ground action names, e.g. "move(countertop, fountain)"
+    atoms: list  # AtomKey per bit
+    actions: list  # ground action names, e.g. "move(countertop, fountain)"
     action_schema: list
     action_args: list
-    action_cost: list           # int PDDL cost per ground action
-    ops: list                   # Op per variant (a disjunctive precondition gives several)
-    op_action: list             # ground action of each variant
+    action_cost: list  # int PDDL cost per ground action
+    ops: list  # Op per variant (a disjunctive precondition gives several)
+    op_action: list  # ground action of each variant
     init: int
-    objects: list               # object names in declaration order
-    objects_of: Callable        # type name -> objects of that type
-    schema_params: dict         # schema -> [(param, type)]
-    resets: list                # [([choice masks], [probabilities])]
+    objects: list  # object names in declaration order
+    objects_of: Callable  # type name -> objects of that type
+    schema_params: dict  # schema -> [(param, type)]
+    resets: list  # [([choice masks], [probabilities])]
     files: dict
     tasks: TaskDistribution = None
-    source: object = None           # the parsed DomainSource (tarski schemas and problem)
+    source: object = None  # the parsed DomainSource (tarski schemas and problem)
     static_atoms: frozenset = frozenset()
-    axioms: object = None           # planning.domain.axioms.Axioms where the domain has derived predicates
+    axioms: object = None  # planning.domain.axioms.Axioms where the domain has derived predicates
     atom_index: dict = field(init=False)
     action_index: dict = field(init=False)
 
@@ -78,9 +79,10 @@ class Model:
         tasks = []
         for spec, ops in compiled:
             if not ops:
-                raise DomainError(self.files["tasks"], f"task {spec.name} can never be satisfied in layout {self.layout}")
-            tasks.append(Task(len(tasks), spec.type, spec.args, spec.params, spec.probability, tuple(ops),
-                              self.axioms))
+                raise DomainError(
+                    self.files["tasks"], f"task {spec.name} can never be satisfied in layout {self.layout}"
+                )
+            tasks.append(Task(len(tasks), spec.type, spec.args, spec.params, spec.probability, tuple(ops), self.axioms))
         self.tasks = TaskDistribution(tasks, self.files["config"])
 
     # ---- sizes and names -------------------------------------------------
@@ -122,7 +124,9 @@ class Model:
             except ValueError as e:
                 raise DomainError(self.files["problem"], str(e)) from None
             if key not in self.atom_index:
-                raise DomainError(self.files["problem"], f"{atom_text(key)} is not a reachable fluent atom of this layout")
+                raise DomainError(
+                    self.files["problem"], f"{atom_text(key)} is not a reachable fluent atom of this layout"
+                )
             s |= 1 << self.atom_index[key]
         return self.derive(s)
 

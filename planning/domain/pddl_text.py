@@ -16,6 +16,7 @@ here as s-expressions with line numbers:
 Where the text does not read as balanced s-expressions nothing is checked here and
 tarski reports the syntax error.
 """
+
 from __future__ import annotations
 
 import re
@@ -104,7 +105,7 @@ class Checker:
         self.text = text
 
     def refuse(self, node, construct: str, inside: str, why: str):
-        snippet = " ".join(self.text[node.start:node.end].split())
+        snippet = " ".join(self.text[node.start : node.end].split())
         if len(snippet) > 60:
             snippet = snippet[:57] + "..."
         raise DomainError(f"{self.path}:{node.line}", f"{construct} {snippet} in {inside}: {why}")
@@ -115,8 +116,9 @@ class Checker:
             return
         head = node.head
         if head in COMPARISONS or (head == "=" and any(isinstance(x, Node) for x in node.items[1:])):
-            self.refuse(node, "numeric condition", inside, "numeric fluents are not supported "
-                        "(only static action costs)")
+            self.refuse(
+                node, "numeric condition", inside, "numeric fluents are not supported (only static action costs)"
+            )
         if head == "preference":
             self.refuse(node, "preference", inside, "preferences are not supported")
         if head in ("forall", "exists"):
@@ -132,8 +134,12 @@ class Checker:
     def atom(self, node, inside: str) -> None:
         nested = next((x for x in node.items[1:] if isinstance(x, Node)), None)
         if nested is not None:
-            self.refuse(nested, "function term", inside, "object fluents are not supported "
-                        "(an atom's arguments are objects, constants and parameters)")
+            self.refuse(
+                nested,
+                "function term",
+                inside,
+                "object fluents are not supported (an atom's arguments are objects, constants and parameters)",
+            )
 
     # ---- effects ---------------------------------------------------------
     def effect(self, node, inside: str) -> None:
@@ -142,15 +148,26 @@ class Checker:
         head = node.head
         if head in NUMERIC_EFFECTS:
             target = node.items[1] if len(node.items) > 1 else None
-            if head != "increase" or not (isinstance(target, Node) and len(target.items) == 1
-                                          and target.head == "total-cost"):
-                self.refuse(node, "numeric effect", inside, "numeric fluents are not supported "
-                            "(only action costs: (increase (total-cost) ...))")
+            if head != "increase" or not (
+                isinstance(target, Node) and len(target.items) == 1 and target.head == "total-cost"
+            ):
+                self.refuse(
+                    node,
+                    "numeric effect",
+                    inside,
+                    "numeric fluents are not supported (only action costs: (increase (total-cost) ...))",
+                )
             value = node.items[2] if len(node.items) > 2 else None
-            if isinstance(value, Node) and (value.head in ARITHMETIC or value.head == ""
-                                            or any(isinstance(x, Node) for x in value.items[1:])):
-                self.refuse(node, "cost expression", inside, "an action cost must be a number or "
-                            "a static function of the parameters, such as (move-cost ?from ?to)")
+            if isinstance(value, Node) and (
+                value.head in ARITHMETIC or value.head == "" or any(isinstance(x, Node) for x in value.items[1:])
+            ):
+                self.refuse(
+                    node,
+                    "cost expression",
+                    inside,
+                    "an action cost must be a number or "
+                    "a static function of the parameters, such as (move-cost ?from ?to)",
+                )
             return
         if head == "when":
             if len(node.items) > 1:
@@ -190,13 +207,15 @@ def _unsupported_section(checker: Checker, node: Node, where_kind: str) -> None:
     name = node.items[1].text if len(node.items) > 1 and isinstance(node.items[1], Token) else "?"
     where = f"{checker.path}:{node.line}"
     if head == ":durative-action":
-        raise DomainError(where, f"durative action {name}: durative actions are not supported "
-                                 "(only instantaneous :action)")
+        raise DomainError(
+            where, f"durative action {name}: durative actions are not supported (only instantaneous :action)"
+        )
     if head in (":process", ":event"):
         raise DomainError(where, f"PDDL+ {head[1:]} {name}: processes and events are not supported")
     if head == ":constraints":
-        raise DomainError(where, f"(:constraints ...) in the {where_kind}: state-trajectory constraints "
-                                 "are not supported")
+        raise DomainError(
+            where, f"(:constraints ...) in the {where_kind}: state-trajectory constraints are not supported"
+        )
 
 
 @dataclass
@@ -204,7 +223,7 @@ class Prepared:
     """A file's text as tarski is to read it, and the axioms its `:derived` blocks became."""
 
     text: str
-    derived: dict = field(default_factory=dict)   # pseudo-action name -> (derived predicate, line)
+    derived: dict = field(default_factory=dict)  # pseudo-action name -> (derived predicate, line)
 
 
 def prepare_domain(path: Path, text: str, kind: str = "domain") -> Prepared:
@@ -217,8 +236,11 @@ def prepare_domain(path: Path, text: str, kind: str = "domain") -> Prepared:
         return Prepared(text)
     checker = Checker(path, text)
     what = "action" if kind == "domain" else "task schema"
-    taken = {x.items[1].text.lower() for x in _sections(nodes)
-             if x.head == ":action" and len(x.items) > 1 and isinstance(x.items[1], Token)}
+    taken = {
+        x.items[1].text.lower()
+        for x in _sections(nodes)
+        if x.head == ":action" and len(x.items) > 1 and isinstance(x.items[1], Token)
+    }
     edits, derived = [], {}
     for node in _sections(nodes):
         _unsupported_section(checker, node, "domain")
@@ -230,8 +252,12 @@ def prepare_domain(path: Path, text: str, kind: str = "domain") -> Prepared:
                 checker.refuse(node, "derived predicate", "domain", "write it as (:derived (p ?x - type) condition)")
             pred = head.head
             if kind != "domain":
-                checker.refuse(node, "derived predicate", f"{what} file",
-                               f"derived predicates belong in domain.pddl, not in {path.name}")
+                checker.refuse(
+                    node,
+                    "derived predicate",
+                    f"{what} file",
+                    f"derived predicates belong in domain.pddl, not in {path.name}",
+                )
             checker.condition(node.items[2], f"derived predicate {pred}")
             k = len(derived)
             name = f"{DERIVED_PREFIX}{k}"
@@ -246,12 +272,23 @@ def prepare_domain(path: Path, text: str, kind: str = "domain") -> Prepared:
     out, pos = [], 0
     for node, head, name in edits:
         body = node.items[2]
-        params = text[head.items[0].end:head.end - 1]             # "?x - t ?y" with its newlines
-        lead = text[node.start:head.start].count("\n")
-        between = text[head.end:body.start]
-        trailing = text[body.end:node.end - 1]
-        out += [text[pos:node.start], f"(:action {name}", "\n" * lead, " :parameters (", params, ")",
-                between, " :precondition ", text[body.start:body.end], trailing, " :effect (and))"]
+        params = text[head.items[0].end : head.end - 1]  # "?x - t ?y" with its newlines
+        lead = text[node.start : head.start].count("\n")
+        between = text[head.end : body.start]
+        trailing = text[body.end : node.end - 1]
+        out += [
+            text[pos : node.start],
+            f"(:action {name}",
+            "\n" * lead,
+            " :parameters (",
+            params,
+            ")",
+            between,
+            " :precondition ",
+            text[body.start : body.end],
+            trailing,
+            " :effect (and))",
+        ]
         pos = node.end
     out.append(text[pos:])
     return Prepared("".join(out), derived)
@@ -273,12 +310,19 @@ def check_problem(path: Path, text: str) -> str | None:
             for x in node.items[1:]:
                 checker.condition(x, "the goal")
         elif node.head == ":metric":
-            words = " ".join(checker.text[node.start:node.end].lower().split())
+            words = " ".join(checker.text[node.start : node.end].lower().split())
             if not re.fullmatch(r"\(:metric minimize \(\s*total-cost\s*\)\)", words.replace("( ", "(")):
                 checker.refuse(node, "metric", "the problem", "only (:metric minimize (total-cost)) is supported")
         elif node.head == ":init":
             for x in node.items[1:]:
-                if isinstance(x, Node) and x.head == "at" and len(x.items) > 1 and isinstance(x.items[1], Token) \
-                        and re.fullmatch(r"[0-9.]+", x.items[1].text):
-                    checker.refuse(x, "timed initial literal", "the problem's :init", "timed literals are not supported")
+                if (
+                    isinstance(x, Node)
+                    and x.head == "at"
+                    and len(x.items) > 1
+                    and isinstance(x.items[1], Token)
+                    and re.fullmatch(r"[0-9.]+", x.items[1].text)
+                ):
+                    checker.refuse(
+                        x, "timed initial literal", "the problem's :init", "timed literals are not supported"
+                    )
     return domain

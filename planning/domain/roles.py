@@ -5,6 +5,7 @@ relations to objects such as holding) are told apart from the world's by their
 shape in the layout, not by name: the labeller's P^C pairs, the GNN graph and
 the dataset's preparatory clauses all use this one reading.
 """
+
 from __future__ import annotations
 
 
@@ -40,5 +41,8 @@ def agent_predicates(model) -> set:
     """The predicates that describe the agent itself rather than the world: 0-ary fluents
     (hand-free), its position (robot-at) and its relations to objects (holding)."""
     locations = set(model.locations)
-    return ({a[0] for a in model.atoms if len(a) == 1} | position_predicates(model, locations)
-            | agent_relations(model, locations))
+    return (
+        {a[0] for a in model.atoms if len(a) == 1}
+        | position_predicates(model, locations)
+        | agent_relations(model, locations)
+    )

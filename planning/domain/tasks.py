@@ -5,6 +5,7 @@ named under [tasks.<type>].arguments are the task's arguments; the others are
 existential. A task is satisfied when some binding of them holds, and on
 completion the consumption of the first such binding (object order) is applied.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -18,8 +19,8 @@ from planning.errors import DomainError
 @dataclass(frozen=True)
 class TaskSpec:
     type: str
-    args: tuple            # argument objects, in parameter order
-    params: tuple          # the argument parameter names, e.g. ("?l",)
+    args: tuple  # argument objects, in parameter order
+    params: tuple  # the argument parameter names, e.g. ("?l",)
     probability: float
 
     @property
@@ -36,7 +37,7 @@ class Task:
     args: tuple
     params: tuple
     probability: float
-    bindings: tuple        # Op per existential binding, in object order: goal conj + consumption
+    bindings: tuple  # Op per existential binding, in object order: goal conj + consumption
     axioms: object = None  # the model's derived-predicate axioms, recomputed after the consumption
 
     @property
@@ -138,15 +139,17 @@ def check_entry(ttype: str, entry, where) -> None:
         raise DomainError(where, f"[tasks.{ttype}] is {entry!r}, not a table")
     unknown = [k for k in entry if k not in TASK_KEYS]
     if unknown:
-        raise DomainError(where, f"task {ttype}: unknown key '{unknown[0]}' (a [tasks.<type>] table has "
-                                 f"{' and '.join(TASK_KEYS)})")
+        raise DomainError(
+            where, f"task {ttype}: unknown key '{unknown[0]}' (a [tasks.<type>] table has {' and '.join(TASK_KEYS)})"
+        )
     if "probability" not in entry:
         raise DomainError(where, f"task {ttype}: no probability")
     probability(entry["probability"], where, f"task {ttype}: probability")
     arguments = entry.get("arguments", {})
     if not isinstance(arguments, dict):
-        raise DomainError(where, f"task {ttype}: arguments is {arguments!r}, not a table like "
-                                 '{ "?l" = ["servingtable"] }')
+        raise DomainError(
+            where, f'task {ttype}: arguments is {arguments!r}, not a table like {{ "?l" = ["servingtable"] }}'
+        )
     for pname, value in arguments.items():
         if isinstance(value, list):
             bad = [o for o in value if not isinstance(o, str)]
@@ -170,7 +173,7 @@ def _argument_domain(ttype, pname, value, sort, grounder, where) -> list[tuple[s
         if abs(sum(q for _, q in pairs) - 1.0) > 1e-9:
             raise DomainError(where, f"task {ttype}: probabilities of {pname} do not sum to 1")
     else:
-        raise DomainError(where, f"task {ttype}: {pname} must be a list, a table or \"all\"")
+        raise DomainError(where, f'task {ttype}: {pname} must be a list, a table or "all"')
     for o, _ in pairs:
         if o not in grounder.objects:
             raise DomainError(where, f"task {ttype}: unknown object '{o}' for {pname}")

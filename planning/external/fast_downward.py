@@ -7,6 +7,7 @@ written out as PDDL with its `:derived` axioms (planning.external.pddl_writer) a
 given to up-fast-downward's own Fast Downward driver directly, so its translator
 and search evaluate the axioms themselves.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -28,7 +29,7 @@ from planning.errors import DomainError
 from planning.external.pddl_writer import domain_text, problem_text, task_goal_text
 from planning.external.up_bridge import action_name, up_goal_text, up_problem, up_problem_text
 
-OPTIMAL_CONFIG = "astar(blind())"   # the thesis's myopic oracle: A* with the blind heuristic
+OPTIMAL_CONFIG = "astar(blind())"  # the thesis's myopic oracle: A* with the blind heuristic
 
 
 class Status(Enum):
@@ -52,11 +53,11 @@ _STATUS = {
 @dataclass
 class PlanResult:
     status: Status
-    plan: list = field(default_factory=list)   # ground action indices of our model
+    plan: list = field(default_factory=list)  # ground action indices of our model
     cost: int | None = None
-    optimal: bool = False                      # A* with an admissible heuristic, solved
+    optimal: bool = False  # A* with an admissible heuristic, solved
     seconds: float = 0.0
-    expansions: int | None = None              # as Fast Downward reports them
+    expansions: int | None = None  # as Fast Downward reports them
     message: str = ""
 
 
@@ -75,18 +76,28 @@ def _private_cwd():
 
 def run_planner(problem, search: str = OPTIMAL_CONFIG, time_limit: float = 600.0):
     """Fast Downward on a unified-planning problem: (UP result, the planner's log text)."""
-    params = {"fast_downward_search_config": search,
-              "fast_downward_search_time_limit": f"{max(1, int(time_limit))}s",
-              "log_level": "info"}
+    params = {
+        "fast_downward_search_config": search,
+        "fast_downward_search_time_limit": f"{max(1, int(time_limit))}s",
+        "log_level": "info",
+    }
     with _private_cwd(), OneshotPlanner(name="fast-downward", params=params) as planner:
         result = planner.solve(problem, timeout=time_limit + 30)
     return result, "\n".join(m.message for m in result.log_messages or [])
 
 
 # The driver's exit codes (fast-downward.org: exit codes), for a run without unified-planning.
-_EXIT = {0: Status.SOLVED, 10: Status.UNSOLVABLE, 11: Status.UNSOLVABLE, 12: Status.UNSOLVABLE,
-         20: Status.OUT_OF_MEMORY, 21: Status.OUT_OF_TIME, 22: Status.OUT_OF_MEMORY,
-         23: Status.OUT_OF_TIME, 24: Status.OUT_OF_MEMORY}
+_EXIT = {
+    0: Status.SOLVED,
+    10: Status.UNSOLVABLE,
+    11: Status.UNSOLVABLE,
+    12: Status.UNSOLVABLE,
+    20: Status.OUT_OF_MEMORY,
+    21: Status.OUT_OF_TIME,
+    22: Status.OUT_OF_MEMORY,
+    23: Status.OUT_OF_TIME,
+    24: Status.OUT_OF_MEMORY,
+}
 
 
 def driver() -> Path:
@@ -100,8 +111,18 @@ def run_driver(domain: str, problem: str, search: str = OPTIMAL_CONFIG, time_lim
         d = Path(d)
         (d / "domain.pddl").write_text(domain)
         (d / "problem.pddl").write_text(problem)
-        cmd = [sys.executable, str(driver()), "--plan-file", "plan", "--search-time-limit",
-               f"{max(1, int(time_limit))}s", "domain.pddl", "problem.pddl", "--search", search]
+        cmd = [
+            sys.executable,
+            str(driver()),
+            "--plan-file",
+            "plan",
+            "--search-time-limit",
+            f"{max(1, int(time_limit))}s",
+            "domain.pddl",
+            "problem.pddl",
+            "--search",
+            search,
+        ]
         try:
             run = subprocess.run(cmd, cwd=d, capture_output=True, text=True, timeout=time_limit + 30)
         except subprocess.TimeoutExpired:
@@ -119,8 +140,7 @@ def run_driver(domain: str, problem: str, search: str = OPTIMAL_CONFIG, time_lim
         return status, plan, log
 
 
-def solve(model, state: int, task, time_limit: float = 600.0,
-          search: str = OPTIMAL_CONFIG) -> PlanResult:
+def solve(model, state: int, task, time_limit: float = 600.0, search: str = OPTIMAL_CONFIG) -> PlanResult:
     """Plan one task from one state with Fast Downward; the plan is replayed in our simulator.
 
     Through unified-planning (the domain renamed where it needs it), or, for a domain with

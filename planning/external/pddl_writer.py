@@ -14,6 +14,7 @@ What is written is valid PDDL for every domain the front end accepts:
   and objects in one namespace) and, for a reader without derived predicates, each
   derived atom replaced by its definition (`inline_derived`; recursive axioms cannot be).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -77,10 +78,12 @@ class Names:
         lang = src.problem.language
         taken = set(src.actions)
         out = cls()
-        kinds = [("object", [c.name for c in lang.constants()], out.objects),
-                 ("predicate", [p.name for p in lang.predicates if not p.builtin], out.predicates),
-                 ("function", [f.name for f in lang.functions if not f.builtin], out.functions),
-                 ("type", [s.name for s in lang.sorts if not s.builtin and s.name not in NUMERIC_SORTS], out.types)]
+        kinds = [
+            ("object", [c.name for c in lang.constants()], out.objects),
+            ("predicate", [p.name for p in lang.predicates if not p.builtin], out.predicates),
+            ("function", [f.name for f in lang.functions if not f.builtin], out.functions),
+            ("type", [s.name for s in lang.sorts if not s.builtin and s.name not in NUMERIC_SORTS], out.types),
+        ]
         everything = set(taken) | {n for _, names, _ in kinds for n in names}
         for kind, names, table in kinds:
             for name in names:
@@ -144,13 +147,18 @@ class Printer:
 
     def _inline(self, pred: str, args: list) -> str:
         if pred in self._stack:
-            raise DomainError(self.where, f"derived predicate {pred} is recursive (through "
-                                          f"{' -> '.join(self._stack + [pred])}): it cannot be written out "
-                                          "for a reader without derived predicates")
+            raise DomainError(
+                self.where,
+                f"derived predicate {pred} is recursive (through "
+                f"{' -> '.join(self._stack + [pred])}): it cannot be written out "
+                "for a reader without derived predicates",
+            )
         self._stack.append(pred)
         try:
-            bodies = [self.formula(schema.precondition, {p.symbol: a for p, a in zip(schema.parameters, args)})
-                      for schema, _ in self.derived[pred]]
+            bodies = [
+                self.formula(schema.precondition, {p.symbol: a for p, a in zip(schema.parameters, args)})
+                for schema, _ in self.derived[pred]
+            ]
         finally:
             self._stack.pop()
         return bodies[0] if len(bodies) == 1 else "(or " + " ".join(bodies) + ")"
@@ -215,15 +223,24 @@ def domain_text(model, names: Names = IDENTITY, inline_derived: bool = False) ->
     lang = src.problem.language
     pr = Printer(model, names, inline_derived)
     parent = lang.immediate_parent
-    reqs = [":strips", ":typing", ":negative-preconditions", ":disjunctive-preconditions", ":equality",
-            ":existential-preconditions", ":universal-preconditions", ":conditional-effects"]
+    reqs = [
+        ":strips",
+        ":typing",
+        ":negative-preconditions",
+        ":disjunctive-preconditions",
+        ":equality",
+        ":existential-preconditions",
+        ":universal-preconditions",
+        ":conditional-effects",
+    ]
     if src.derived and not inline_derived:
         reqs.append(":derived-predicates")
     if src.action_costs:
         reqs.append(":action-costs")
     types = [s for s in lang.sorts if not s.builtin and s.name not in NUMERIC_SORTS]
-    type_lines = [f"{names.type(s.name)} - {names.type(parent[s].name) if parent.get(s) is not None else 'object'}"
-                  for s in types]
+    type_lines = [
+        f"{names.type(s.name)} - {names.type(parent[s].name) if parent.get(s) is not None else 'object'}" for s in types
+    ]
     const = [lang.get(c) for c in src.domain_constants]
     preds = [p for p in lang.predicates if not p.builtin and not (inline_derived and p.name in src.derived)]
     pred_lines = []
@@ -239,8 +256,11 @@ def domain_text(model, names: Names = IDENTITY, inline_derived: bool = False) ->
     if type_lines:
         parts.append("  (:types\n    " + "\n    ".join(type_lines) + ")")
     if const:
-        parts.append("  (:constants\n    " + "\n    ".join(f"{names.object(c.name)} - {names.type(c.sort.name)}"
-                                                         for c in const) + ")")
+        parts.append(
+            "  (:constants\n    "
+            + "\n    ".join(f"{names.object(c.name)} - {names.type(c.sort.name)}" for c in const)
+            + ")"
+        )
     parts.append("  (:predicates\n    " + "\n    ".join(pred_lines) + ")")
     if func_lines:
         parts.append("  (:functions\n    " + "\n    ".join(func_lines) + ")")
@@ -255,9 +275,11 @@ def domain_text(model, names: Names = IDENTITY, inline_derived: bool = False) ->
             term = schema.cost.addend
             value = _number(term) if isinstance(term, Constant) else pr.term(term, {})
             effects.append(f"(increase (total-cost) {value})")
-        parts.append(f"  (:action {schema.name}\n    :parameters ({_typed(schema.parameters, names)})\n"
-                     f"    :precondition {pr.formula(schema.precondition, {})}\n"
-                     f"    :effect (and {' '.join(effects)}))")
+        parts.append(
+            f"  (:action {schema.name}\n    :parameters ({_typed(schema.parameters, names)})\n"
+            f"    :precondition {pr.formula(schema.precondition, {})}\n"
+            f"    :effect (and {' '.join(effects)}))"
+        )
     return "\n".join(parts) + ")\n"
 
 
@@ -285,8 +307,11 @@ def problem_text(model, state: int, goal: str, name: str = "state", names: Names
     src = model.source
     lang = src.problem.language
     domain_constants = set(src.domain_constants)
-    objects = "\n    ".join(f"{names.object(c.name)} - {names.type(c.sort.name)}" for c in lang.constants()
-                            if c.name not in domain_constants)
+    objects = "\n    ".join(
+        f"{names.object(c.name)} - {names.type(c.sort.name)}"
+        for c in lang.constants()
+        if c.name not in domain_constants
+    )
 
     def atom(key) -> str:
         return atom_text((names.predicate(key[0]), *map(names.object, key[1:])))
@@ -308,6 +333,8 @@ def problem_text(model, state: int, goal: str, name: str = "state", names: Names
         init.append("(= (total-cost) 0)")
     body = "\n    ".join(init)
     metric = "\n  (:metric minimize (total-cost))" if src.action_costs else ""
-    return (f"(define (problem {name})\n  (:domain {src.problem.domain_name.strip()})\n"
-            f"  (:objects\n    {objects})\n  (:init\n    {body})\n"
-            f"  (:goal {goal}){metric})\n")
+    return (
+        f"(define (problem {name})\n  (:domain {src.problem.domain_name.strip()})\n"
+        f"  (:objects\n    {objects})\n  (:init\n    {body})\n"
+        f"  (:goal {goal}){metric})\n"
+    )

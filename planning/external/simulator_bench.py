@@ -9,6 +9,7 @@ absolute times on a shared machine are noisy.
 
     python -m planning.external.simulator_bench --domain domains/restaurant --layout three-room --out FILE
 """
+
 from __future__ import annotations
 
 import platform
@@ -27,7 +28,7 @@ def reachable_states(model, n: int, seed: int, walk: int = 64) -> list[int]:
     """Up to n distinct states from seeded random walks, each walk starting at a world reset."""
     rng = np.random.default_rng(seed)
     states, seen = [], set()
-    for _ in range(max(100, 10 * n // walk)):   # small domains have fewer than n states
+    for _ in range(max(100, 10 * n // walk)):  # small domains have fewer than n states
         if len(states) >= n:
             break
         s = model.reset_state(rng)
@@ -51,8 +52,7 @@ def _timed(fn, min_seconds: float) -> tuple[float, int]:
             return elapsed / calls, calls
 
 
-def benchmark(model, n_states: int = 300, seed: int = 0, batch: int = 8192,
-              min_seconds: float = 2.0) -> dict:
+def benchmark(model, n_states: int = 300, seed: int = 0, batch: int = 8192, min_seconds: float = 2.0) -> dict:
     """Successors per second of the three simulators on the same states, and their ratios."""
     from unified_planning.shortcuts import SequentialSimulator
 
@@ -91,12 +91,17 @@ def benchmark(model, n_states: int = 300, seed: int = 0, batch: int = 8192,
     batched = len(parent) / t_batch
     ref = n_succ / t_ref
     return {
-        "domain": model.name, "layout": model.layout, "states": len(states),
-        "successors": n_succ, "mean_branching": round(n_succ / len(states), 2),
+        "domain": model.name,
+        "layout": model.layout,
+        "states": len(states),
+        "successors": n_succ,
+        "mean_branching": round(n_succ / len(states), 2),
         "batch_size": len(tiled),
-        "successors_per_s": round(single), "batched_transitions_per_s": round(batched),
+        "successors_per_s": round(single),
+        "batched_transitions_per_s": round(batched),
         "reference_successors_per_s": round(ref, 1),
-        "ratio_single": round(single / ref, 1), "ratio_batched": round(batched / ref, 1),
+        "ratio_single": round(single / ref, 1),
+        "ratio_batched": round(batched / ref, 1),
         "machine": f"{platform.machine()} {platform.python_implementation()} {platform.python_version()}",
     }
 
@@ -109,8 +114,10 @@ def main() -> None:
     args = p.parse_args()
     model = compile_domain(args.domain, args.layout)
     r = benchmark(model, args.states, args.seed, args.batch, args.seconds)
-    print(f"{r['domain']} {r['layout']}: {r['states']} states, {r['successors']} successors "
-          f"(mean branching {r['mean_branching']})")
+    print(
+        f"{r['domain']} {r['layout']}: {r['states']} states, {r['successors']} successors "
+        f"(mean branching {r['mean_branching']})"
+    )
     print(f"  successors(state)      {r['successors_per_s']:>12,} successors/s")
     print(f"  batched step (N={r['batch_size']}) {r['batched_transitions_per_s']:>12,} transitions/s")
     print(f"  unified-planning       {r['reference_successors_per_s']:>12,.1f} successors/s")

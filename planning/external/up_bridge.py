@@ -8,6 +8,7 @@ predicates. Where a domain needs it, the domain is written out again
 derived atom replaced by its definition; otherwise the author's own files are read as
 they are. Plans and states are mapped back through the same names.
 """
+
 from __future__ import annotations
 
 import warnings
@@ -133,8 +134,9 @@ class UPStates:
 
     def to_up(self, state: int):
         """The unified-planning state with exactly our state's fluent atoms true."""
-        return self.initial.make_child({e: self.true if state >> i & 1 else self.false
-                                        for i, e in zip(self.bits, self.exps)})
+        return self.initial.make_child(
+            {e: self.true if state >> i & 1 else self.false for i, e in zip(self.bits, self.exps)}
+        )
 
     def from_up(self, up_state) -> int:
         """Our state read off a unified-planning state (fluent atoms of our model only)."""

@@ -31,6 +31,7 @@ databases, LM-cut on P^C and the window's layered LM-cut would read derived
 atoms as atoms no action reaches, so on such a model they are refused by name
 rather than run inadmissibly.
 """
+
 from __future__ import annotations
 
 import sys
@@ -52,35 +53,68 @@ class Heuristic:
 
     name: str
     summary: str
-    build: Callable                                  # build(bm, search) -> h(batch, goals), or None (Dijkstra)
+    build: Callable  # build(bm, search) -> h(batch, goals), or None (Dijkstra)
     searches: tuple = SEARCHES
     supports: Callable = lambda model: True
-    fallback: dict = field(default_factory=dict)     # search -> heuristic used where unsupported
-    needs: str = ""                                  # what `supports` asks of a model, for the fallback's report
-    derived: tuple = ()                              # the searches where it stays admissible with derived predicates
-    records: dict = field(default_factory=dict)      # search -> the estimate as results files name it (default: name)
-    lookup: bool = False                             # its estimate is a table lookup: not worth memoizing
+    fallback: dict = field(default_factory=dict)  # search -> heuristic used where unsupported
+    needs: str = ""  # what `supports` asks of a model, for the fallback's report
+    derived: tuple = ()  # the searches where it stays admissible with derived predicates
+    records: dict = field(default_factory=dict)  # search -> the estimate as results files name it (default: name)
+    lookup: bool = False  # its estimate is a table lookup: not worth memoizing
 
 
-HEURISTICS = {h.name: h for h in (
-    Heuristic("pdb", "pattern databases: exact distances in projections onto a few objects (planning.heuristics.pdb)",
-              pdb.build, supports=lambda model: bool(model.locations),
-              fallback={"task": "lmcut", "window": "layered", "multi-goal": "lmcut"},
-              needs="needs the locations that rooms under [layouts.{layout}] in domain.toml list",
-              records={"window": "max(pattern databases of the current stage, "
-                                 "the window's pattern databases over the stages left)"},
-              lookup=True),
-    Heuristic("layered", "LM-cut on the window's stage-layered relaxation (planning.heuristics.layered)",
-              layered.build, searches=("window",), records={"window": "lmcut of the stage-layered relaxation"}),
-    Heuristic("lmcut", "LM-cut of the delete relaxation (planning.heuristics.lmcut, with its C kernel)",
-              lmcut.build, derived=("task",), records={"window": "lmcut of the current stage"}),
-    Heuristic("lmcut-pc", "LM-cut on the P^C compilation with the agent's atom pairs (planning.heuristics.lmcut_pc)",
-              lmcut_pc.build, searches=("multi-goal",)),
-    Heuristic("hmax", "h_max of the delete relaxation (planning.heuristics.hmax)", hmax.build, derived=("task",),
-              records={"window": "hmax of the current stage"}),
-    Heuristic("blind", "0 everywhere: Dijkstra", lambda bm, search: None, searches=("task", "multi-goal"),
-              derived=("task", "multi-goal")),
-)}
+HEURISTICS = {
+    h.name: h
+    for h in (
+        Heuristic(
+            "pdb",
+            "pattern databases: exact distances in projections onto a few objects (planning.heuristics.pdb)",
+            pdb.build,
+            supports=lambda model: bool(model.locations),
+            fallback={"task": "lmcut", "window": "layered", "multi-goal": "lmcut"},
+            needs="needs the locations that rooms under [layouts.{layout}] in domain.toml list",
+            records={
+                "window": "max(pattern databases of the current stage, "
+                "the window's pattern databases over the stages left)"
+            },
+            lookup=True,
+        ),
+        Heuristic(
+            "layered",
+            "LM-cut on the window's stage-layered relaxation (planning.heuristics.layered)",
+            layered.build,
+            searches=("window",),
+            records={"window": "lmcut of the stage-layered relaxation"},
+        ),
+        Heuristic(
+            "lmcut",
+            "LM-cut of the delete relaxation (planning.heuristics.lmcut, with its C kernel)",
+            lmcut.build,
+            derived=("task",),
+            records={"window": "lmcut of the current stage"},
+        ),
+        Heuristic(
+            "lmcut-pc",
+            "LM-cut on the P^C compilation with the agent's atom pairs (planning.heuristics.lmcut_pc)",
+            lmcut_pc.build,
+            searches=("multi-goal",),
+        ),
+        Heuristic(
+            "hmax",
+            "h_max of the delete relaxation (planning.heuristics.hmax)",
+            hmax.build,
+            derived=("task",),
+            records={"window": "hmax of the current stage"},
+        ),
+        Heuristic(
+            "blind",
+            "0 everywhere: Dijkstra",
+            lambda bm, search: None,
+            searches=("task", "multi-goal"),
+            derived=("task", "multi-goal"),
+        ),
+    )
+}
 
 
 def names(search: str) -> list[str]:
@@ -107,10 +141,18 @@ def choose(name: str, model, search: str) -> str:
     if getattr(model, "axioms", None) is not None and search not in h.derived:
         ok = admissible_with_derived(search)
         preds = ", ".join(model.source.derived) if getattr(model, "source", None) is not None else "derived"
-        raise DomainError("--heuristic", f"'{name}' is not admissible with the derived predicates of "
-                          f"{model.name} ({preds}) in the {search} search; "
-                          + (f"use {', '.join(ok[:-1])} or {ok[-1]}" if len(ok) > 1 else f"use {ok[0]}" if ok
-                             else "none of its heuristics is"))
+        raise DomainError(
+            "--heuristic",
+            f"'{name}' is not admissible with the derived predicates of "
+            f"{model.name} ({preds}) in the {search} search; "
+            + (
+                f"use {', '.join(ok[:-1])} or {ok[-1]}"
+                if len(ok) > 1
+                else f"use {ok[0]}"
+                if ok
+                else "none of its heuristics is"
+            ),
+        )
     if h.supports(model):
         return name
     needs = (h.needs or "cannot run on layout {layout}").format(layout=getattr(model, "layout", ""))
@@ -120,8 +162,9 @@ def choose(name: str, model, search: str) -> str:
     key = (name, stand_in, getattr(model, "name", ""), getattr(model, "layout", ""))
     if key not in _REPORTED:
         _REPORTED.add(key)
-        print(f"note: heuristic '{name}' {needs} (domain {key[2]} gives none): using {stand_in} instead",
-              file=sys.stderr)
+        print(
+            f"note: heuristic '{name}' {needs} (domain {key[2]} gives none): using {stand_in} instead", file=sys.stderr
+        )
     return stand_in
 
 
@@ -130,7 +173,7 @@ def describe(name: str, search: str) -> str:
     return HEURISTICS[name].records.get(search, name)
 
 
-_BUILT: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()   # bm -> {(name, search, builder): h}
+_BUILT: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()  # bm -> {(name, search, builder): h}
 
 
 def build(name: str, bm, search: str):

@@ -1,4 +1,5 @@
 """Admissible heuristics for the exact searches, computed for a whole batch of states at once."""
+
 from __future__ import annotations
 
 from types import SimpleNamespace
@@ -7,7 +8,7 @@ import numpy as np
 
 from planning.states import INF_64
 
-INF = np.iinfo(np.int32).max // 4        # relaxed costs are int32 (half the memory traffic); INF + a cost fits
+INF = np.iinfo(np.int32).max // 4  # relaxed costs are int32 (half the memory traffic); INF + a cost fits
 
 
 class HMax:
@@ -25,12 +26,12 @@ class HMax:
     def __init__(self, model, bm):
         self.bm = bm
         n = model.n_atoms
-        achievers = []                      # (precondition literals, action cost, reached literal)
+        achievers = []  # (precondition literals, action cost, reached literal)
 
         def add_achievers(pre, cost, add, dele):
             for atom in _bits(add):
                 achievers.append((pre, cost, atom))
-            for atom in _bits(dele & ~add):           # add wins over delete
+            for atom in _bits(dele & ~add):  # add wins over delete
                 achievers.append((pre, cost, n + atom))
 
         for op, a in zip(model.ops, model.op_action):
@@ -65,7 +66,7 @@ class HMax:
                     if p not in relevant:
                         relevant.add(p)
                         frontier.append(p)
-        lits = sorted(l for l in relevant if l in by_effect)          # reachable by some achiever
+        lits = sorted(l for l in relevant if l in by_effect)  # reachable by some achiever
         chosen = [i for l in lits for i in by_effect[l]]
         n = self.n_atoms
         # Padding: literal n is always reached (cost 0).
@@ -92,8 +93,8 @@ class HMax:
         if not len(lits):
             return cost
         while True:
-            via = cost[:, pre].max(-1) + acost                    # (N, achievers)
-            best = np.minimum.reduceat(via, starts, axis=1)        # (N, relevant literals)
+            via = cost[:, pre].max(-1) + acost  # (N, achievers)
+            best = np.minimum.reduceat(via, starts, axis=1)  # (N, relevant literals)
             new = np.minimum(cost[:, lits], best)
             if (new == cost[:, lits]).all():
                 return cost
@@ -104,8 +105,7 @@ class HMax:
         if not len(batch):
             return np.zeros(0, dtype=np.int64)
         cost = self.literal_costs(batch, goal)
-        per_conj = [cost[:, conj].max(-1) if conj else np.zeros(len(batch), dtype=np.int32)
-                    for conj in goal]
+        per_conj = [cost[:, conj].max(-1) if conj else np.zeros(len(batch), dtype=np.int32) for conj in goal]
         h = np.minimum.reduce(per_conj).astype(np.int64)
         h[h >= INF] = INF_64
         return h
@@ -149,7 +149,7 @@ class MinHMax:
         self.union = [c for task in lits for c in task]
         owner = np.array([t for t, task in enumerate(lits) for _ in task], dtype=np.int64)
         self.starts = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])
-        always = self.hmax.n_atoms                  # literal_costs' last column: always 0
+        always = self.hmax.n_atoms  # literal_costs' last column: always 0
         width = max((len(c) for c in self.union), default=1) or 1
         self.conj = np.full((len(self.union), width), always, dtype=np.int64)
         for k, c in enumerate(self.union):
@@ -157,8 +157,8 @@ class MinHMax:
 
     def per_task(self, batch: np.ndarray) -> np.ndarray:
         """(N, T) h_max of every task (INF_64: dead end)."""
-        cost = self.hmax.literal_costs(batch, self.union)                # (N, 2 atoms + 1)
-        per_conj = cost[:, self.conj].max(-1).astype(np.int64)          # (N, K)
+        cost = self.hmax.literal_costs(batch, self.union)  # (N, 2 atoms + 1)
+        per_conj = cost[:, self.conj].max(-1).astype(np.int64)  # (N, K)
         h = np.minimum.reduceat(per_conj, self.starts, axis=1)
         h[h >= INF] = INF_64
         return h
@@ -199,5 +199,12 @@ def relaxed_view(model):
             op_action.append(free)
     ops.append(Op(0, 0, 0, axioms.mask))
     op_action.append(free)
-    return SimpleNamespace(n_atoms=model.n_atoms, atoms=model.atoms, ops=ops, op_action=op_action,
-                           action_cost=cost, name=model.name, layout=model.layout)
+    return SimpleNamespace(
+        n_atoms=model.n_atoms,
+        atoms=model.atoms,
+        ops=ops,
+        op_action=op_action,
+        action_cost=cost,
+        name=model.name,
+        layout=model.layout,
+    )

@@ -5,6 +5,7 @@ window holds two; the layered relaxation of the stages left sees that the
 first cup's water is consumed, so the second needs water again, while a filled
 jar carries over (`layered_relaxation`).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -94,13 +95,13 @@ def layered_relaxation(lmcut: LMCut, n: int, tasks: list) -> Relaxed:
             for f, op in enumerate(bindings):
                 cond = kills[f].get(p, [])
                 if cond is None:
-                    continue                            # f fired: p is gone
+                    continue  # f fired: p is gone
                 pre = keep + [(k, q) for q in conj(op)]
                 earlier = [b for b in range(f) if kills[b].get(p, 0) is None]
                 options = [[]]
-                if len(earlier) == 1:                   # that binding did not fire: one of its literals failed
+                if len(earlier) == 1:  # that binding did not fire: one of its literals failed
                     options = [[(k, neg(q))] for q in conj(bindings[earlier[0]])] or [[]]
-                if cond:                                # f fired but its conditional delete did not
+                if cond:  # f fired but its conditional delete did not
                     options = [o + [(k, neg(x))] for o in options for x in cond]
                 for extra in options:
                     rows.append((pre + extra, name, (k + 1, p)))

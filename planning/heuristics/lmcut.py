@@ -18,6 +18,7 @@ serves the joint search's stage-layered relaxation. planning/heuristics/_lmcut.c
 the same values one state at a time, 5-10x faster; it is built on first use
 with the system C compiler, and the numpy version runs where there is none.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -33,7 +34,7 @@ from planning.errors import DomainError
 from planning.heuristics.hmax import INF, GoalLiterals, HMax, relaxed_view
 from planning.states import INF_64
 
-CHUNK = 512         # states per numpy pass: keeps the (achievers, states) arrays in cache
+CHUNK = 512  # states per numpy pass: keeps the (achievers, states) arrays in cache
 
 
 class LMCut:
@@ -65,7 +66,7 @@ class LMCut:
     def _add(self, pre, op, add, dele, n) -> None:
         for atom in _bits(add):
             self._achievers.append((pre, op, atom))
-        for atom in _bits(dele & ~add):           # add wins over delete
+        for atom in _bits(dele & ~add):  # add wins over delete
             self._achievers.append((pre, op, n + atom))
 
     def achievers(self) -> list:
@@ -102,11 +103,11 @@ class LMCut:
         out = np.zeros(len(batch), dtype=np.int64)
         lib = native()
         for lo in range(0, len(batch), CHUNK):
-            holds = task.holds(self.bm.to_bits(batch[lo: lo + CHUNK]).astype(bool).T)
+            holds = task.holds(self.bm.to_bits(batch[lo : lo + CHUNK]).astype(bool).T)
             if lib is None:
-                out[lo: lo + CHUNK] = lmcut_values(holds, task)
+                out[lo : lo + CHUNK] = lmcut_values(holds, task)
                 continue
-            out[lo: lo + CHUNK] = _native_batch(lib, task, holds)[0]
+            out[lo : lo + CHUNK] = _native_batch(lib, task, holds)[0]
         return out
 
     def landmarks(self, batch: np.ndarray, task: "Relaxed") -> tuple[np.ndarray, list]:
@@ -124,7 +125,7 @@ class LMCut:
         i = 0
         while i < len(flat):
             s, k = int(flat[i]), int(flat[i + 1])
-            cuts[s].append(flat[i + 2: i + 2 + k])
+            cuts[s].append(flat[i + 2 : i + 2 + k])
             i += 2 + k
         return h, cuts
 
@@ -146,11 +147,29 @@ def _native_batch(lib, task: "Relaxed", holds: np.ndarray, landmarks: bool = Fal
     while True:
         cuts = np.zeros(cap, dtype=np.int64)
         used = np.zeros(1, dtype=np.int64)
-        status = lib.lmcut_batch(len(rows), task.n_cols, len(task.eff), len(task.op_cost), task.pre.shape[1],
-                                 task.pre, task.pre_of_start, task.pre_of, task.n_pre, task.eff, task.owner,
-                                 task.eff_start, task.op_cost, task.op_start, task.op_ach, task.goal_col, rows, out,
-                                 cuts.ctypes.data if landmarks else None, cap,
-                                 used.ctypes.data if landmarks else None)
+        status = lib.lmcut_batch(
+            len(rows),
+            task.n_cols,
+            len(task.eff),
+            len(task.op_cost),
+            task.pre.shape[1],
+            task.pre,
+            task.pre_of_start,
+            task.pre_of,
+            task.n_pre,
+            task.eff,
+            task.owner,
+            task.eff_start,
+            task.op_cost,
+            task.op_start,
+            task.op_ach,
+            task.goal_col,
+            rows,
+            out,
+            cuts.ctypes.data if landmarks else None,
+            cap,
+            used.ctypes.data if landmarks else None,
+        )
         if status == -2:
             cap *= 4
             continue
@@ -185,9 +204,13 @@ def _load_native():
         if not lib.is_file():
             cache.mkdir(parents=True, exist_ok=True)
             tmp = cache / f"{lib.name}.{os.getpid()}.tmp"
-            subprocess.run([os.environ.get("CC", "cc"), "-O2", "-shared", "-fPIC", "-o", str(tmp), str(src)],
-                           check=True, capture_output=True, timeout=120)
-            os.replace(tmp, lib)          # atomic: processes building at once never load half a file
+            subprocess.run(
+                [os.environ.get("CC", "cc"), "-O2", "-shared", "-fPIC", "-o", str(tmp), str(src)],
+                check=True,
+                capture_output=True,
+                timeout=120,
+            )
+            os.replace(tmp, lib)  # atomic: processes building at once never load half a file
         so = ctypes.CDLL(str(lib))
     except (OSError, subprocess.SubprocessError):
         return None
@@ -196,33 +219,54 @@ def _load_native():
     u8 = np.ctypeslib.ndpointer(np.uint8, flags="C_CONTIGUOUS")
     n = ctypes.c_int64
     so.lmcut_batch.restype = ctypes.c_int
-    so.lmcut_batch.argtypes = [n, n, n, n, n, i64, i64, i64, i32, i64, i64, i64, i32, i64, i64, n, u8, i64,
-                                ctypes.c_void_p, n, ctypes.c_void_p]
+    so.lmcut_batch.argtypes = [
+        n,
+        n,
+        n,
+        n,
+        n,
+        i64,
+        i64,
+        i64,
+        i32,
+        i64,
+        i64,
+        i64,
+        i32,
+        i64,
+        i64,
+        n,
+        u8,
+        i64,
+        ctypes.c_void_p,
+        n,
+        ctypes.c_void_p,
+    ]
     return so
 
 
 class Relaxed(NamedTuple):
     """A delete-relaxed task as arrays: columns are literals, then TRUE; achievers sorted by effect."""
 
-    pre: np.ndarray          # (achievers, width) precondition columns, padded with TRUE
-    eff: np.ndarray          # (achievers,) reached column
-    owner: np.ndarray        # (achievers,) operator
-    op_cost: np.ndarray      # (operators,) int32
-    targets: np.ndarray      # columns with achievers, ascending
-    starts: np.ndarray       # first achiever of each target
-    wide: list               # _width_groups(pre)
+    pre: np.ndarray  # (achievers, width) precondition columns, padded with TRUE
+    eff: np.ndarray  # (achievers,) reached column
+    owner: np.ndarray  # (achievers,) operator
+    op_cost: np.ndarray  # (operators,) int32
+    targets: np.ndarray  # columns with achievers, ascending
+    starts: np.ndarray  # first achiever of each target
+    wide: list  # _width_groups(pre)
     goal_col: int
-    state_cols: np.ndarray   # columns that mirror a literal of the state ...
-    state_lits: np.ndarray   # ... that literal (n + i: not atom i)
+    state_cols: np.ndarray  # columns that mirror a literal of the state ...
+    state_lits: np.ndarray  # ... that literal (n + i: not atom i)
     n_cols: int
-    keys: list               # the key of each column but TRUE
+    keys: list  # the key of each column but TRUE
     pre_of_start: np.ndarray  # CSR, column -> the achievers it is a precondition of (TRUE for none) ...
-    pre_of: np.ndarray        # ... with multiplicity
-    n_pre: np.ndarray         # (achievers,) int32 precondition count
-    eff_start: np.ndarray     # (columns + 1,) the achievers of column c are eff_start[c]:eff_start[c + 1]
-    op_start: np.ndarray      # CSR, operator -> ...
-    op_ach: np.ndarray        # ... its achievers
-    op_keys: list             # the operator behind each operator index
+    pre_of: np.ndarray  # ... with multiplicity
+    n_pre: np.ndarray  # (achievers,) int32 precondition count
+    eff_start: np.ndarray  # (columns + 1,) the achievers of column c are eff_start[c]:eff_start[c + 1]
+    op_start: np.ndarray  # CSR, operator -> ...
+    op_ach: np.ndarray  # ... its achievers
+    op_keys: list  # the operator behind each operator index
 
     def holds(self, bits: np.ndarray) -> np.ndarray:
         """(columns, N) bool: the initial literals, from (atoms, N) state bits."""
@@ -272,13 +316,27 @@ def compile_relaxed(achievers: list, costs: dict, goal, initial: dict) -> Relaxe
     pre_of = np.array([a for _, a in entries], dtype=np.int64)
     pre_of_start = np.searchsorted(np.array([c for c, _ in entries], dtype=np.int64), np.arange(true_col + 2))
     n_pre = np.bincount(pre_of, minlength=len(rows)).astype(np.int32)
-    return Relaxed(pre, eff, owner, np.array([costs[o] for o in ops], dtype=np.int32), targets, starts,
-                   _width_groups(pre, true_col), col[goal],
-                   np.array([c for c, _ in state], dtype=np.int64), np.array([l for _, l in state], dtype=np.int64),
-                   true_col + 1, keys, pre_of_start.astype(np.int64), pre_of, n_pre,
-                   np.searchsorted(eff, np.arange(true_col + 2)).astype(np.int64),
-                   np.searchsorted(owner[np.argsort(owner, kind="stable")], np.arange(len(ops) + 1)).astype(np.int64),
-                   np.argsort(owner, kind="stable").astype(np.int64), ops)
+    return Relaxed(
+        pre,
+        eff,
+        owner,
+        np.array([costs[o] for o in ops], dtype=np.int32),
+        targets,
+        starts,
+        _width_groups(pre, true_col),
+        col[goal],
+        np.array([c for c, _ in state], dtype=np.int64),
+        np.array([l for _, l in state], dtype=np.int64),
+        true_col + 1,
+        keys,
+        pre_of_start.astype(np.int64),
+        pre_of,
+        n_pre,
+        np.searchsorted(eff, np.arange(true_col + 2)).astype(np.int64),
+        np.searchsorted(owner[np.argsort(owner, kind="stable")], np.arange(len(ops) + 1)).astype(np.int64),
+        np.argsort(owner, kind="stable").astype(np.int64),
+        ops,
+    )
 
 
 def lmcut_values(holds: np.ndarray, task: Relaxed) -> np.ndarray:
@@ -350,7 +408,7 @@ def _max_pre(hm, pre, wide) -> np.ndarray:
 def _cut(hm, cost, holds, pre, wide, eff, goal_col) -> np.ndarray:
     """(achievers, N) bool: the landmark of this round, per state."""
     n = hm.shape[1]
-    pcf = np.repeat(pre[:, :1], n, axis=1)                 # (achievers, N) column of the costliest
+    pcf = np.repeat(pre[:, :1], n, axis=1)  # (achievers, N) column of the costliest
     best = hm[pre[:, 0]]
     for sel, col in wide:
         v = hm[col]
@@ -362,7 +420,7 @@ def _cut(hm, cost, holds, pre, wide, eff, goal_col) -> np.ndarray:
     zone = np.zeros(hm.shape, dtype=bool)
     zone[goal_col] = True
     z = zone.reshape(-1)
-    while True:                              # backwards through zero-cost achievers
+    while True:  # backwards through zero-cost achievers
         grow = zone[eff] & zero & ~z[flat_pcf]
         if not grow.any():
             break
@@ -371,7 +429,7 @@ def _cut(hm, cost, holds, pre, wide, eff, goal_col) -> np.ndarray:
     reach = holds.copy()
     r = reach.reshape(-1)
     flat_eff = eff[:, None] * n + np.arange(n)
-    while True:                              # forwards from the state, never into the zone
+    while True:  # forwards from the state, never into the zone
         grow = r[flat_pcf] & ~into & ~reach[eff]
         if not grow.any():
             break

@@ -24,6 +24,7 @@ The relaxed task is built with planning.heuristics.lmcut.compile_relaxed; its st
 are the atoms, then one bit per conjunction (both atoms true), so an LMCut whose
 state bits carry those conjunctions evaluates it.
 """
+
 from __future__ import annotations
 
 import itertools
@@ -54,7 +55,7 @@ def _cases(op):
 class MutexPairs:
     """Pairs of atoms that can never hold together in a state reachable from a state respecting them."""
 
-    CHUNK = 1024             # states per check in `respected`
+    CHUNK = 1024  # states per check in `respected`
 
     def __init__(self, model, initial_states):
         n = model.n_atoms
@@ -75,7 +76,7 @@ class MutexPairs:
                 if not len(A):
                     continue
                 if len(P) and (m[np.ix_(P, P)].any() or neg[P].any()):
-                    continue                        # never applicable in a state respecting m
+                    continue  # never applicable in a state respecting m
                 # q may hold after the op together with an added p unless it is deleted,
                 # required false, or mutex with a precondition (then it was false before)
                 kept_apart = dele | neg | (m[P].any(0) if len(P) else np.zeros(n, dtype=bool))
@@ -106,8 +107,8 @@ class MutexPairs:
         """(N,) bool of (N, atoms) state bits: which states hold no mutex pair together."""
         out = np.ones(len(bits), dtype=bool)
         for lo in range(0, len(bits), self.CHUNK):
-            b = bits[lo: lo + self.CHUNK].astype(bool)
-            out[lo: lo + self.CHUNK] = ~(b[:, self.p] & b[:, self.q]).any(1)
+            b = bits[lo : lo + self.CHUNK].astype(bool)
+            out[lo : lo + self.CHUNK] = ~(b[:, self.p] & b[:, self.q]).any(1)
         return out
 
     def any_pair(self, atoms) -> bool:
@@ -188,7 +189,7 @@ class ConjunctionLMCut:
         self.initial.update({("-", i): self.n_bits + i for i in range(n)})
         self.initial.update({("c", k): n + k for k in range(len(self.pairs))})
         self.lmcut = LMCut(model, bm)
-        self.lmcut.bm = ConjunctionBits(bm, self.pairs)     # its state bits carry the conjunctions
+        self.lmcut.bm = ConjunctionBits(bm, self.pairs)  # its state bits carry the conjunctions
         self._tables: dict = {}
 
     def _pre(self, atoms, neg: int) -> list:
@@ -238,8 +239,9 @@ class PairsLMCut:
 
         self.bm = bm
         self.mutex = MutexPairs(model, [model.init] + [model.reset_state(seed) for seed in range(32)])
-        self.pc = ConjunctionLMCut(model, bm, self.mutex, [goal_literals(model, t) for t in model.tasks],
-                                   keep=agent_pairs(model))
+        self.pc = ConjunctionLMCut(
+            model, bm, self.mutex, [goal_literals(model, t) for t in model.tasks], keep=agent_pairs(model)
+        )
         self.plain = LMCut(model, bm)
         self.literals = GoalLiterals(model)
 

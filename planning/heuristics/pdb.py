@@ -29,6 +29,7 @@ or world reset changes. Abstract state spaces are explored from the initial and
 reset states by actions and task consumptions, so every state of the persistent
 world is in them; a state outside (e.g. hand-written) gets h = 0.
 """
+
 from __future__ import annotations
 
 import itertools
@@ -44,8 +45,8 @@ from planning.domain.batched import BatchedModel, satisfied
 from planning.errors import DomainError
 from planning.states import INF_64, StateTable, state_keys
 
-CHUNK = 1 << 14             # abstract states expanded per numpy call
-WINDOW_CACHE_BYTES = 1 << 31    # window distance tables kept for windows of tasks seen again
+CHUNK = 1 << 14  # abstract states expanded per numpy call
+WINDOW_CACHE_BYTES = 1 << 31  # window distance tables kept for windows of tasks seen again
 
 
 def _bits(mask: int) -> list[int]:
@@ -88,8 +89,17 @@ class Projection:
     (sorted keys and rows) and its transition graph, labelled by operator, ready for goal
     distances under the model's action costs or any other (a cost partitioning's share)."""
 
-    def __init__(self, model, bm: BatchedModel, objects: frozenset, atom_mask: int, seeds: np.ndarray,
-                 consumption: list, max_states: int, costs: list | None = None):
+    def __init__(
+        self,
+        model,
+        bm: BatchedModel,
+        objects: frozenset,
+        atom_mask: int,
+        seeds: np.ndarray,
+        consumption: list,
+        max_states: int,
+        costs: list | None = None,
+    ):
         """`costs`: per ground action, in place of the model's (a cost partitioning's share)."""
         self.objects = objects
         self.mask = bm.pack([atom_mask])[0]
@@ -102,7 +112,7 @@ class Projection:
             # Edges (source, target, operator row), sorted by (target, source) for the reversed
             # graph; each (source, target) keeps its cheapest operator under the costs given.
             n_ops = len(self._ops.edge)
-            edge = np.sort((dst * self.size + src) * n_ops + label)        # < 2^63: size^2 * ops
+            edge = np.sort((dst * self.size + src) * n_ops + label)  # < 2^63: size^2 * ops
             edge = edge[np.r_[True, edge[1:] != edge[:-1]]]
             pair = edge // n_ops
             self._src, self._dst = (pair % self.size).astype(np.int32), (pair // self.size).astype(np.int32)
@@ -116,7 +126,7 @@ class Projection:
     def _graph(self, costs: np.ndarray) -> csr_matrix:
         """The reversed transition graph, each edge weighted by its cheapest operator under `costs`."""
         cost = np.minimum.reduceat(self._ops.row_costs(costs)[self._label], self._first)
-        weight = np.where(cost > 0, cost, 1e-9).astype(float)          # a zero-cost action stays an edge
+        weight = np.where(cost > 0, cost, 1e-9).astype(float)  # a zero-cost action stays an edge
         return csr_matrix((weight, *self._pairs), shape=(self.size, self.size))
 
     def index(self, batch: np.ndarray) -> np.ndarray:
@@ -147,7 +157,7 @@ class Projection:
             start = np.full(self.size, INF_64, dtype=np.int64)
             done = _project_ops(self._model, self._bm, self._atom_mask, list(task.bindings), actions=False)
             for v in range(len(done.edge)):
-                ok = np.flatnonzero(satisfied(self.rows, done.pos[v: v + 1], done.neg[v: v + 1]))
+                ok = np.flatnonzero(satisfied(self.rows, done.pos[v : v + 1], done.neg[v : v + 1]))
                 nxt = (self.rows[ok] & done.keep[v]) | done.add[v]
                 start[ok] = np.minimum(start[ok], after[self.index(nxt)])
             after = self._backward_from(start, graph)
@@ -181,8 +191,10 @@ class Projection:
             return out
         n = self.size
         weight = np.where(start[src] > 0, start[src], 1e-9).astype(float)
-        graph = csr_matrix((np.r_[g.data, weight], np.r_[g.indices, src], np.r_[g.indptr, g.indptr[-1] + len(src)]),
-                           shape=(n + 1, n + 1))
+        graph = csr_matrix(
+            (np.r_[g.data, weight], np.r_[g.indices, src], np.r_[g.indptr, g.indptr[-1] + len(src)]),
+            shape=(n + 1, n + 1),
+        )
         d = dijkstra(graph, directed=True, indices=n)[:n]
         ok = np.isfinite(d)
         out[:-1][ok] = np.floor(d[ok] + 1e-6).astype(np.int64)
@@ -196,7 +208,7 @@ def _project_ops(model, bm, atom_mask: int, consumption: list, actions: bool = T
     literals join the precondition) or it does not (if its condition is one kept
     literal, that literal's negation joins the precondition; otherwise nothing is
     known and both operators stay, an over-approximation)."""
-    rows = []     # (pos, neg, add, dele, is action, ground action or -1)
+    rows = []  # (pos, neg, add, dele, is action, ground action or -1)
     sources = [(op, True, a) for op, a in zip(model.ops, model.op_action)] if actions else []
     sources += [(op, False, -1) for op in consumption]
     for op, is_action, action in sources:
@@ -205,12 +217,17 @@ def _project_ops(model, bm, atom_mask: int, consumption: list, actions: bool = T
             p, n, a_, d_ = base
             for (cp, cn, ca, cd), f in zip(op.cond, fired):
                 if f:
-                    p, n, a_, d_ = p | (cp & atom_mask), n | (cn & atom_mask), a_ | (ca & atom_mask), d_ | (cd & atom_mask)
+                    p, n, a_, d_ = (
+                        p | (cp & atom_mask),
+                        n | (cn & atom_mask),
+                        a_ | (ca & atom_mask),
+                        d_ | (cd & atom_mask),
+                    )
                 elif not (cp | cn) & ~atom_mask and len(_bits(cp)) + len(_bits(cn)) == 1:
                     p, n = p | cn, n | cp
             if not p & n and (a_ & ~p or d_ & ~n or not is_action):
-                rows.append((p, n, a_, d_, is_action, action))     # (an action changing nothing is a self-loop)
-    merged = {}                                     # projections of different actions often coincide
+                rows.append((p, n, a_, d_, is_action, action))  # (an action changing nothing is a self-loop)
+    merged = {}  # projections of different actions often coincide
     for r in rows:
         members = merged.setdefault(r[:5], set())
         if r[5] >= 0:
@@ -218,9 +235,15 @@ def _project_ops(model, bm, atom_mask: int, consumption: list, actions: bool = T
     keys = list(merged)
     pack = lambda col: bm.pack([k[col] for k in keys])
     members = [sorted(merged[k]) for k in keys]
-    return _Ops(pack(0), pack(1), pack(2), ~pack(3), np.array([k[4] for k in keys], dtype=bool),
-                np.array([a for m in members for a in m], dtype=np.int64),
-                np.cumsum([0] + [len(m) for m in members]).astype(np.int64))
+    return _Ops(
+        pack(0),
+        pack(1),
+        pack(2),
+        ~pack(3),
+        np.array([k[4] for k in keys], dtype=bool),
+        np.array([a for m in members for a in m], dtype=np.int64),
+        np.cumsum([0] + [len(m) for m in members]).astype(np.int64),
+    )
 
 
 def _explore(bm, ops: _Ops, seeds: np.ndarray, max_states: int):
@@ -238,7 +261,7 @@ def _explore(bm, ops: _Ops, seeds: np.ndarray, max_states: int):
     while len(frontier) and n <= max_states:
         children, sources, edge = [], [], []
         for lo in range(0, len(frontier), CHUNK):
-            part = frontier[lo: lo + CHUNK]
+            part = frontier[lo : lo + CHUNK]
             viol = np.zeros((len(part), len(ops.edge)), dtype=np.uint64)
             for w in range(W):
                 s = part[:, w, None]
@@ -269,7 +292,7 @@ def _explore(bm, ops: _Ops, seeds: np.ndarray, max_states: int):
         n += len(frontier)
     sorted_keys, rows, ids = seen.merged()
     rank = np.empty(n, dtype=np.int64)
-    rank[ids] = np.arange(n)                                 # id -> position in key order
+    rank[ids] = np.arange(n)  # id -> position in key order
     cat = lambda parts, dtype: np.concatenate(parts) if parts else np.zeros(0, dtype=dtype)
     return sorted_keys, rows, rank[cat(src, np.int64)], rank[cat(dst, np.int64)], cat(labels, np.int64)
 
@@ -283,15 +306,18 @@ class PatternDatabases:
 
     name = "pdb"
 
-    def __init__(self, model, bm: BatchedModel | None = None, tasks=None, max_states: int = 200_000,
-                 max_objects: int = 3):
+    def __init__(
+        self, model, bm: BatchedModel | None = None, tasks=None, max_states: int = 200_000, max_objects: int = 3
+    ):
         self.model = model
         self.bm = bm or BatchedModel(model)
         self.tasks = list(model.tasks.tasks if tasks is None else tasks)
         locations = set(model.locations)
         if not locations:
-            raise DomainError(model.files["config"], f"[layouts.{model.layout}] lists no rooms: "
-                                                     "pattern databases need to know the locations")
+            raise DomainError(
+                model.files["config"],
+                f"[layouts.{model.layout}] lists no rooms: pattern databases need to know the locations",
+            )
         consumption = [op for t in model.tasks.tasks for op in t.bindings]
         changed = 0
         for op in [*model.ops, *consumption]:
@@ -301,8 +327,9 @@ class PatternDatabases:
                 changed |= c
         self._changed = changed
         # Each atom's objects (its arguments that are not locations); an unchanging atom has none.
-        self.atom_objects = [frozenset(a[1:]) - locations if changed >> i & 1 else frozenset()
-                             for i, a in enumerate(model.atoms)]
+        self.atom_objects = [
+            frozenset(a[1:]) - locations if changed >> i & 1 else frozenset() for i, a in enumerate(model.atoms)
+        ]
         self.objects = sorted(set().union(*self.atom_objects), key=model.objects.index)
         # Objects that share a ground action are neighbours.
         self.neighbours = {o: set() for o in self.objects}
@@ -316,13 +343,13 @@ class PatternDatabases:
         self._consumption = consumption
         self._max_states = max_states
         self.max_objects = max_objects
-        self.projections: dict[frozenset, tuple] = {}     # objects -> (projection or None, budget tried)
+        self.projections: dict[frozenset, tuple] = {}  # objects -> (projection or None, budget tried)
         # The distance tables of each goal binding's patterns, stacked into one array; a binding
         # maps to its (projection, offset) pairs (none: it reads the leading 0).
         self._tables: dict[tuple, list] = {}
         self._chunks, self._size, self._stacked = [np.zeros(1, dtype=np.int64)], 1, None
         self._plans: dict = {}
-        self._windows: OrderedDict = OrderedDict()       # least recently used first, WINDOW_CACHE_BYTES in all
+        self._windows: OrderedDict = OrderedDict()  # least recently used first, WINDOW_CACHE_BYTES in all
         self._additive: dict = {}
         for task in self.tasks:
             for op in task.bindings:
@@ -362,7 +389,7 @@ class PatternDatabases:
             for i, objs in enumerate(self.atom_objects):
                 if len(objs) == 1 and next(iter(objs)) in own:
                     own[next(iter(objs))] |= 1 << i
-            fixed = 0                                   # atoms nothing changes (the fountain's place)
+            fixed = 0  # atoms nothing changes (the fountain's place)
             for i, objs in enumerate(self.atom_objects):
                 if not objs and not self._changed >> i & 1:
                     fixed |= 1 << i
@@ -374,8 +401,9 @@ class PatternDatabases:
             out = []
             for o in objects:
                 costs = [c if owner.get(a) == o else 0 for a, c in enumerate(m.action_cost)]
-                p = Projection(m, self.bm, frozenset([o]), own[o] | fixed, self.seeds, self._consumption,
-                               self._max_states, costs)
+                p = Projection(
+                    m, self.bm, frozenset([o]), own[o] | fixed, self.seeds, self._consumption, self._max_states, costs
+                )
                 if p.exhausted:
                     out.append(p)
             self._additive[key] = out
@@ -463,7 +491,7 @@ class PatternDatabases:
                 if group and fits:
                     order.append(max(fits, key=value))
                     used |= order[-1].objects
-            for i in range(len(order) if len(order) > 1 else 0):     # each pattern first once
+            for i in range(len(order) if len(order) > 1 else 0):  # each pattern first once
                 turn = order[i:] + order[:i]
                 estimates.append(self.saturated_window(tasks, turn, alone[turn[0]]))
             self._windows[key] = estimates
@@ -518,7 +546,7 @@ class PatternDatabases:
         if self._stacked is None:
             self._stacked = np.concatenate(self._chunks)
         projections, maxed, summed, goal_starts = self._plans[key]
-        idx = np.stack([p.index(batch) for p in projections], axis=1)       # (N, projections)
+        idx = np.stack([p.index(batch) for p in projections], axis=1)  # (N, projections)
         column, offset, starts = maxed
         h = np.maximum.reduceat(self._stacked[offset + idx[:, column]], starts, axis=1)
         column, offset, starts = summed
@@ -530,7 +558,7 @@ class PatternDatabases:
     def _plan(self, goals) -> tuple:
         """Which projections, table offsets and reduce boundaries answer a list of goals."""
         projections, where, goal_starts = [], {}, []
-        cols = ([], [], [], []), ([], [], [], [])         # maxed, summed: column, offset, binding starts
+        cols = ([], [], [], []), ([], [], [], [])  # maxed, summed: column, offset, binding starts
         for goal in goals:
             goal_starts.append(len(cols[0][2]))
             for op in goal.bindings:
@@ -557,7 +585,7 @@ class _Nowhere:
 
 
 _NOWHERE = _Nowhere()
-_PART_INF = INF_64 // 64          # summands are clipped here: a sum of up to 64 never overflows
+_PART_INF = INF_64 // 64  # summands are clipped here: a sum of up to 64 never overflows
 
 
 @lru_cache(maxsize=8)

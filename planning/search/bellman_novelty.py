@@ -67,6 +67,7 @@ force a path. The loop before the kernel is kept verbatim in
 `planning.search.bellman_novelty_reference` (the benchmark's reference).
 Measured with `learning.agents.bench_bn`: results/bench-bn-*.json.
 """
+
 from __future__ import annotations
 
 import itertools
@@ -84,23 +85,35 @@ from planning.search.terminals import (
     select_terminal,
 )
 
-BELLMAN_TURNS = 3                 # Bellman turns per novelty turn (Algorithm 3, lines 6-16)
-DEPTH_CAP = 20                    # d_max of Table A.3
-PREFETCH = 64                     # most states per q_max call when a flush speculatively values grandchildren
+BELLMAN_TURNS = 3  # Bellman turns per novelty turn (Algorithm 3, lines 6-16)
+DEPTH_CAP = 20  # d_max of Table A.3
+PREFETCH = 64  # most states per q_max call when a flush speculatively values grandchildren
 
 
 @dataclass
 class BNResult:
-    plan: list | None                   # ground action indices of the chosen terminal; None: no selection
+    plan: list | None  # ground action indices of the chosen terminal; None: no selection
     stats: BNStats
-    terminals: list = field(default_factory=list)   # every Terminal, in discovery order
+    terminals: list = field(default_factory=list)  # every Terminal, in discovery order
 
 
-def bellman_novelty_search(model, state: int, task, value, *, budget: int, beta: float,
-                           depth_cap: int = DEPTH_CAP, reference_plan: list | None = None,
-                           gamma: float | None = None, scale: float | None = None,
-                           trace: list | None = None, prefetch: int = PREFETCH, kernel: str = "auto",
-                           native_value: bool = True) -> BNResult:
+def bellman_novelty_search(
+    model,
+    state: int,
+    task,
+    value,
+    *,
+    budget: int,
+    beta: float,
+    depth_cap: int = DEPTH_CAP,
+    reference_plan: list | None = None,
+    gamma: float | None = None,
+    scale: float | None = None,
+    trace: list | None = None,
+    prefetch: int = PREFETCH,
+    kernel: str = "auto",
+    native_value: bool = True,
+) -> BNResult:
     """Algorithms 3-4: the plan of the most-prepared terminal of `task` from `state` within β·C_myo.
 
     model: anything with `successors(state) -> [(action, next_state, cost)]`,
@@ -122,41 +135,81 @@ def bellman_novelty_search(model, state: int, task, value, *, budget: int, beta:
         if gamma is None:
             raise ValueError("the value has no gamma; pass gamma= to the search")
     if scale is None:
-        scale = float(getattr(model, "cost_scale", 1))      # a stand-in model without one: PDDL units
+        scale = float(getattr(model, "cost_scale", 1))  # a stand-in model without one: PDDL units
     if beta < 1:
         raise ValueError(f"beta must be at least 1 (got {beta}): the reference must stay eligible")
     if kernel not in ("auto", "c", "python"):
         raise ValueError(f"kernel must be 'auto', 'c' or 'python', not {kernel!r}")
     compiled = kernel_for(model, task, state) if kernel != "python" else None
     if compiled is None and kernel == "c":
-        raise RuntimeError("the compiled search does not apply here (no C compiler, "
-                           "ANTICIPATORY_BN_NATIVE=0, or not a compiled model and task)")
+        raise RuntimeError(
+            "the compiled search does not apply here (no C compiler, "
+            "ANTICIPATORY_BN_NATIVE=0, or not a compiled model and task)"
+        )
     t_start = time.perf_counter()
     stats = BNStats()
     goal = goal_test(task)
     reference, prefix = None, None
-    if reference_plan is not None:                                  # lines 2-3: the myopic reference terminal
+    if reference_plan is not None:  # lines 2-3: the myopic reference terminal
         t0 = time.perf_counter()
         reference, prefix = reference_terminal(model, state, task, goal, reference_plan, gamma, scale)
         stats.simulator_seconds += time.perf_counter() - t0
     if compiled is None:
-        tree = _run_python(model, state, task, value, goal, reference, budget=budget, depth_cap=depth_cap,
-                           gamma=gamma, scale=scale, trace=trace, prefetch=prefetch, stats=stats)
+        tree = _run_python(
+            model,
+            state,
+            task,
+            value,
+            goal,
+            reference,
+            budget=budget,
+            depth_cap=depth_cap,
+            gamma=gamma,
+            scale=scale,
+            trace=trace,
+            prefetch=prefetch,
+            stats=stats,
+        )
         return _result(tree, reference, prefix, beta, task, value.v_ap, stats, t_start)
-    with CompiledSearch(compiled, model, task, value, budget=budget, depth_cap=depth_cap, gamma=gamma, scale=scale,
-                        prefetch=prefetch, native_value=native_value, tracing=trace is not None) as search:
+    with CompiledSearch(
+        compiled,
+        model,
+        task,
+        value,
+        budget=budget,
+        depth_cap=depth_cap,
+        gamma=gamma,
+        scale=scale,
+        prefetch=prefetch,
+        native_value=native_value,
+        tracing=trace is not None,
+    ) as search:
         search.run(state, reference, stats, trace)
         return _result(search, reference, prefix, beta, task, search.v_ap, stats, t_start)
 
 
-def _run_python(model, state: int, task, value, goal, reference: Terminal | None, *, budget: int, depth_cap: int,
-                gamma: float, scale: float, trace: list | None, prefetch: int, stats: BNStats) -> SearchTree:
+def _run_python(
+    model,
+    state: int,
+    task,
+    value,
+    goal,
+    reference: Terminal | None,
+    *,
+    budget: int,
+    depth_cap: int,
+    gamma: float,
+    scale: float,
+    trace: list | None,
+    prefetch: int,
+    stats: BNStats,
+) -> SearchTree:
     """Lines 2-18 in Python, for any model and value: the tree with its terminals; fills the stats' counts."""
     tree = SearchTree(model, goal, depth_cap, gamma, scale, stats)
-    tick = itertools.count()          # NEXT: push order, the FIFO tie-break of both heaps
+    tick = itertools.count()  # NEXT: push order, the FIFO tie-break of both heaps
     bellman = BellmanFrontier(tree, value, task, tick, prefetch, stats)
     novelty = NoveltyFrontier(tree, _n_atoms(model, state), tick, stats)
-    if reference is not None:                                       # admitted first
+    if reference is not None:  # admitted first
         tree.admit_terminal(reference.state, reference.depth, reference.G, reference.cost, -1, None, "reference")
 
     # -- line 4: ENQUEUE the root (a root that already completes τ is a terminal with the empty plan)
@@ -171,15 +224,15 @@ def _run_python(model, state: int, task, value, goal, reference: Terminal | None
     # -- lines 5-18: the turns; only real expansions count toward the budget -------------------------
     e, phase = 0, 0
     while e < budget and (bellman.heap or bellman.pending or novelty.heap):
-        if phase < BELLMAN_TURNS:                                           # Bellman turn
+        if phase < BELLMAN_TURNS:  # Bellman turn
             phase = (phase + 1) % (BELLMAN_TURNS + 1)
             nid = bellman.pop()
-            if nid is None:                                                 # an empty heap forfeits the turn
+            if nid is None:  # an empty heap forfeits the turn
                 stats.forfeited += 1
                 if trace is not None:
                     trace.append(("forfeit",))
                 continue
-            if tree.is_stale(nid):                                          # so does a stale pop
+            if tree.is_stale(nid):  # so does a stale pop
                 stats.stale += 1
                 if trace is not None:
                     trace.append(("stale", tree.state[nid], tree.depth[nid]))
@@ -189,7 +242,7 @@ def _run_python(model, state: int, task, value, goal, reference: Terminal | None
             if trace is not None:
                 trace.append(("bellman", tree.state[nid], tree.depth[nid]))
             tree.expand(nid, False, bellman, novelty)
-        else:                                                               # novelty turn
+        else:  # novelty turn
             phase = 0
             nid = novelty.pop()
             if nid is None:
@@ -204,12 +257,14 @@ def _run_python(model, state: int, task, value, goal, reference: Terminal | None
     return tree
 
 
-def _result(search, reference: Terminal | None, prefix: list | None, beta: float, task, v_ap, stats: BNStats,
-            t_start: float) -> BNResult:
+def _result(
+    search, reference: Terminal | None, prefix: list | None, beta: float, task, v_ap, stats: BNStats, t_start: float
+) -> BNResult:
     """Line 19, SELECTTERMINAL: score the eligible terminals of `search` (a SearchTree or a CompiledSearch:
     its `terminals` and `plan(i)`), choose by Eq. 4.1, fill the stats' choice and counts."""
-    terminals, c_myo, eligible = score_eligible(search.terminals, reference.cost if reference else None, beta, task,
-                                                v_ap, stats)
+    terminals, c_myo, eligible = score_eligible(
+        search.terminals, reference.cost if reference else None, beta, task, v_ap, stats
+    )
     chosen = select_terminal(terminals, c_myo, beta)
     plan = None
     if chosen is not None:

@@ -59,6 +59,7 @@ the rounding of a batched value, which may depend on the batch):
 - a child of a novelty-expanded node has its width checked on the pairs that
   involve the atoms its action added (`NoveltyTables.width`'s exact fast path).
 """
+
 from __future__ import annotations
 
 import heapq
@@ -71,57 +72,57 @@ import numpy as np
 
 from planning.search.novelty import NoveltyTables
 
-BELLMAN_TURNS = 3                 # Bellman turns per novelty turn (Algorithm 3, lines 6-16)
-DEPTH_CAP = 20                    # d_max of Table A.3
-PREFETCH = 64                     # most states per q_max call when a flush speculatively values grandchildren
+BELLMAN_TURNS = 3  # Bellman turns per novelty turn (Algorithm 3, lines 6-16)
+DEPTH_CAP = 20  # d_max of Table A.3
+PREFETCH = 64  # most states per q_max call when a flush speculatively values grandchildren
 INF = float("inf")
 
 
 class Terminal(NamedTuple):
     """A candidate completion of the current task, in discovery order."""
 
-    source: str                   # "reference" (the myopic plan) or "search"
-    cost: float                   # undiscounted PDDL cost of the prefix
+    source: str  # "reference" (the myopic plan) or "search"
+    cost: float  # undiscounted PDDL cost of the prefix
     depth: int
-    G: float                      # discounted prefix return (RL units, ≤ 0)
-    state: int                    # the completing state, before consumption
-    v_ap: float | None = None     # V_AP of the post-consumption state; None if not scored (ineligible)
+    G: float  # discounted prefix return (RL units, ≤ 0)
+    state: int  # the completing state, before consumption
+    v_ap: float | None = None  # V_AP of the post-consumption state; None if not scored (ineligible)
 
 
 @dataclass
 class BNStats:
     """What a search did and chose; times in seconds."""
 
-    c_myo: float | None = None          # the cost bound's reference
-    terminals: int = 0                  # candidate terminals admitted (the reference included)
-    eligible: int = 0                   # of which within β·C_myo
-    expansions: int = 0                 # charged to the budget
+    c_myo: float | None = None  # the cost bound's reference
+    terminals: int = 0  # candidate terminals admitted (the reference included)
+    eligible: int = 0  # of which within β·C_myo
+    expansions: int = 0  # charged to the budget
     bellman_expansions: int = 0
     novelty_expansions: int = 0
-    forfeited: int = 0                  # Bellman turns lost to an empty heap
-    stale: int = 0                      # Bellman turns lost to a stale pop
-    novelty_skipped: int = 0            # stale novelty pops (the turn went on popping)
-    novelty_dropped: int = 0            # no longer novel at pop
-    novelty_repushed: int = 0           # width got worse at pop
-    generated: int = 0                  # successors generated
-    nodes: int = 0                      # open nodes admitted
-    source: str | None = None           # of the chosen terminal
-    v_ap: float | None = None           # of the chosen terminal
+    forfeited: int = 0  # Bellman turns lost to an empty heap
+    stale: int = 0  # Bellman turns lost to a stale pop
+    novelty_skipped: int = 0  # stale novelty pops (the turn went on popping)
+    novelty_dropped: int = 0  # no longer novel at pop
+    novelty_repushed: int = 0  # width got worse at pop
+    generated: int = 0  # successors generated
+    nodes: int = 0  # open nodes admitted
+    source: str | None = None  # of the chosen terminal
+    v_ap: float | None = None  # of the chosen terminal
     cost: float | None = None
     depth: int | None = None
     seconds: float = 0.0
-    value_seconds: float = 0.0          # q_max and V_AP calls
+    value_seconds: float = 0.0  # q_max and V_AP calls
     value_calls: int = 0
-    value_states: int = 0               # states valued (after the per-state caches)
-    simulator_seconds: float = 0.0      # successors, goal tests, consumption, reference replay
-    novelty_seconds: float = 0.0        # width tests and registration
+    value_states: int = 0  # states valued (after the per-state caches)
+    simulator_seconds: float = 0.0  # successors, goal tests, consumption, reference replay
+    novelty_seconds: float = 0.0  # width tests and registration
 
 
 @dataclass
 class BNResult:
-    plan: list | None                   # ground action indices of the chosen terminal; None: no selection
+    plan: list | None  # ground action indices of the chosen terminal; None: no selection
     stats: BNStats
-    terminals: list = field(default_factory=list)   # every Terminal, in discovery order
+    terminals: list = field(default_factory=list)  # every Terminal, in discovery order
 
 
 def select_terminal(terminals: list, c_myo: float | None, beta: float) -> int | None:
@@ -144,7 +145,7 @@ def select_terminal(terminals: list, c_myo: float | None, beta: float) -> int | 
 
 
 def _within(cost: float, bound: float) -> bool:
-    return cost <= bound + 1e-9 * max(1.0, abs(bound))   # β·C in floats: 1.25 * 4 must admit 5
+    return cost <= bound + 1e-9 * max(1.0, abs(bound))  # β·C in floats: 1.25 * 4 must admit 5
 
 
 def _goal_test(task):
@@ -154,15 +155,26 @@ def _goal_test(task):
         return task.satisfied
     goals = tuple((b.pos, b.neg) for b in bindings)
     if len(goals) == 1:
-        (pos, neg), = goals
+        ((pos, neg),) = goals
         return lambda s: s & pos == pos and not s & neg
     return lambda s: any(s & p == p and not s & n for p, n in goals)
 
 
-def bellman_novelty_search_reference(model, state: int, task, value, *, budget: int, beta: float,
-                           depth_cap: int = DEPTH_CAP, reference_plan: list | None = None,
-                           gamma: float | None = None, scale: float | None = None,
-                           trace: list | None = None, prefetch: int = PREFETCH) -> BNResult:
+def bellman_novelty_search_reference(
+    model,
+    state: int,
+    task,
+    value,
+    *,
+    budget: int,
+    beta: float,
+    depth_cap: int = DEPTH_CAP,
+    reference_plan: list | None = None,
+    gamma: float | None = None,
+    scale: float | None = None,
+    trace: list | None = None,
+    prefetch: int = PREFETCH,
+) -> BNResult:
     """Algorithms 3-4: the plan of the most-prepared terminal of `task` from `state` within β·C_myo.
 
     model: anything with `successors(state) -> [(action, next_state, cost)]`,
@@ -182,7 +194,7 @@ def bellman_novelty_search_reference(model, state: int, task, value, *, budget: 
         if gamma is None:
             raise ValueError("the value has no gamma; pass gamma= to the search")
     if scale is None:
-        scale = float(getattr(model, "cost_scale", 1))      # a stand-in model without one: PDDL units
+        scale = float(getattr(model, "cost_scale", 1))  # a stand-in model without one: PDDL units
     if beta < 1:
         raise ValueError(f"beta must be at least 1 (got {beta}): the reference must stay eligible")
     stats = BNStats()
@@ -191,23 +203,23 @@ def bellman_novelty_search_reference(model, state: int, task, value, *, budget: 
     tables = NoveltyTables(_n_atoms(model, state))
     width, register = tables.width, tables.register
     heappush, heappop = heapq.heappush, heapq.heappop
-    tick = itertools.count()          # NEXT: push order, the FIFO tie-break of both heaps
+    tick = itertools.count()  # NEXT: push order, the FIFO tie-break of both heaps
 
     # Nodes as parallel lists indexed by node id (no object per node).
     n_state, n_parent, n_action, n_depth, n_G, n_cost = [], [], [], [], [], []
-    seen = [{} for _ in range(max(depth_cap, 0) + 1)]        # per depth: state -> best G admitted
-    expanded = [{} for _ in range(max(depth_cap, 0) + 1)]    # per depth: state -> G when expanded
-    gpow = [gamma ** k for k in range(max(depth_cap, 0) + 1)]
-    terminals: list = []              # (state, depth, G, cost, parent, action, source, plan)
+    seen = [{} for _ in range(max(depth_cap, 0) + 1)]  # per depth: state -> best G admitted
+    expanded = [{} for _ in range(max(depth_cap, 0) + 1)]  # per depth: state -> G when expanded
+    gpow = [gamma**k for k in range(max(depth_cap, 0) + 1)]
+    terminals: list = []  # (state, depth, G, cost, parent, action, source, plan)
     h_bellman, h_novelty = [], []
-    pending: list = []                # (node, counter) enqueued but not yet valued and pushed on H_B
-    q_cache: dict = {}                # state -> q_max(state, τ)
-    succ_cache: dict = {}             # state -> its expansion_of list
-    w_cache: dict = {}                # state -> (tables version, width)
+    pending: list = []  # (node, counter) enqueued but not yet valued and pushed on H_B
+    q_cache: dict = {}  # state -> q_max(state, τ)
+    succ_cache: dict = {}  # state -> its expansion_of list
+    w_cache: dict = {}  # state -> (tables version, width)
     t_sim = t_nov = t_val = 0.0
     value_calls = value_states = 0
 
-    def admit_terminal(s, d, G, c, parent, action, source, plan=None):   # TRYADDTERMINAL
+    def admit_terminal(s, d, G, c, parent, action, source, plan=None):  # TRYADDTERMINAL
         while len(seen) <= d:
             seen.append({})
         old = seen[d].get(s)
@@ -279,7 +291,7 @@ def bellman_novelty_search_reference(model, state: int, task, value, *, budget: 
         if w is not None:
             heappush(h_novelty, (w, 0, next(tick), root))
 
-    def expand(nid, registered):                                            # EXPAND
+    def expand(nid, registered):  # EXPAND
         s, d, G, c = n_state[nid], n_depth[nid], n_G[nid], n_cost[nid]
         expanded[d][s] = G
         succ = expansion_of(s)
@@ -292,12 +304,12 @@ def bellman_novelty_search_reference(model, state: int, task, value, *, budget: 
             if hit:
                 admit_terminal(s2, d1, G2, c + k, nid, a, "search")
                 continue
-            if not is_open:                                                  # ENQUEUE line 2
+            if not is_open:  # ENQUEUE line 2
                 continue
             old = seen_d1.get(s2)
-            if old is not None and G2 <= old:                               # ENQUEUE line 3
+            if old is not None and G2 <= old:  # ENQUEUE line 3
                 continue
-            seen_d1[s2] = G2                                                 # line 4
+            seen_d1[s2] = G2  # line 4
             child = len(n_state)
             n_state.append(s2)
             n_parent.append(nid)
@@ -305,8 +317,8 @@ def bellman_novelty_search_reference(model, state: int, task, value, *, budget: 
             n_depth.append(d1)
             n_G.append(G2)
             n_cost.append(c + k)
-            pending.append((child, next(tick)))          # line 5: on H_B with this counter at the next flush
-            w = width_of(s2, s2 & ~s if registered else None)                # line 6
+            pending.append((child, next(tick)))  # line 5: on H_B with this counter at the next flush
+            w = width_of(s2, s2 & ~s if registered else None)  # line 6
             if w is not None:
                 heappush(h_novelty, (w, d1, next(tick), child))
         stats.generated += len(succ)
@@ -317,11 +329,12 @@ def bellman_novelty_search_reference(model, state: int, task, value, *, budget: 
         need = list(dict.fromkeys(n_state[nid] for nid, _ in pending if n_state[nid] not in q_cache))
         if need and prefetch > len(need):
             # The children of these states are the likely next pushes: value them in the same call.
-            extra = dict.fromkeys(s2 for s in need for _, s2, _, hit in expansion_of(s)
-                                  if not hit and s2 not in q_cache)
+            extra = dict.fromkeys(
+                s2 for s in need for _, s2, _, hit in expansion_of(s) if not hit and s2 not in q_cache
+            )
             for s in need:
                 extra.pop(s, None)
-            need += list(extra)[:prefetch - len(need)]
+            need += list(extra)[: prefetch - len(need)]
         if need:
             t0 = clock()
             q = value.q_max(need, task)
@@ -333,7 +346,7 @@ def bellman_novelty_search_reference(model, state: int, task, value, *, budget: 
             heappush(h_bellman, (-(n_G[nid] + gpow[n_depth[nid]] * q_cache[n_state[nid]]), k, nid))
         pending.clear()
 
-    def novelty_pop():                                                      # NOVELTYPOP
+    def novelty_pop():  # NOVELTYPOP
         while h_novelty:
             w_old, d, _, nid = heappop(h_novelty)
             s = n_state[nid]
@@ -354,7 +367,7 @@ def bellman_novelty_search_reference(model, state: int, task, value, *, budget: 
     # -- lines 5-18: the loop ----------------------------------------------------------------------
     e, phase = 0, 0
     while e < budget and (h_bellman or pending or h_novelty):
-        if phase < BELLMAN_TURNS:                                           # Bellman turn
+        if phase < BELLMAN_TURNS:  # Bellman turn
             phase = (phase + 1) % (BELLMAN_TURNS + 1)
             if pending:
                 flush()
@@ -365,7 +378,7 @@ def bellman_novelty_search_reference(model, state: int, task, value, *, budget: 
                 continue
             _, _, nid = heappop(h_bellman)
             d = n_depth[nid]
-            if d >= depth_cap or expanded[d].get(n_state[nid], -INF) >= n_G[nid]:   # STALE
+            if d >= depth_cap or expanded[d].get(n_state[nid], -INF) >= n_G[nid]:  # STALE
                 stats.stale += 1
                 if trace is not None:
                     trace.append(("stale", n_state[nid], d))
@@ -375,13 +388,13 @@ def bellman_novelty_search_reference(model, state: int, task, value, *, budget: 
             if trace is not None:
                 trace.append(("bellman", n_state[nid], d))
             expand(nid, False)
-        else:                                                               # novelty turn
+        else:  # novelty turn
             phase = 0
             nid = novelty_pop()
             if nid is None:
                 continue
             t0 = clock()
-            register(n_state[nid])                                          # line 15: tables grow only here
+            register(n_state[nid])  # line 15: tables grow only here
             t_nov += clock() - t0
             e += 1
             stats.novelty_expansions += 1
@@ -406,8 +419,10 @@ def bellman_novelty_search_reference(model, state: int, task, value, *, budget: 
         value_calls += 1
         value_states += len(need)
         v_cache = dict(zip(need, np.asarray(v, dtype=float).tolist()))
-    out = [Terminal(t[6], t[3], t[1], t[2], t[0], v_cache[after[i]] if i in after else None)
-           for i, t in enumerate(terminals)]
+    out = [
+        Terminal(t[6], t[3], t[1], t[2], t[0], v_cache[after[i]] if i in after else None)
+        for i, t in enumerate(terminals)
+    ]
     chosen = select_terminal(out, c_myo, beta)
     plan = None
     if chosen is not None:

@@ -17,6 +17,7 @@ walks that path instead of closing the whole level breadth first. To stay
 batched, each visit of an (f, h) bucket closes twice as many of its states as
 the visit before (1, 2, 4, ...): a dive that fails costs O(log n) visits.
 """
+
 from __future__ import annotations
 
 import heapq
@@ -27,10 +28,10 @@ import numpy as np
 from planning.states import INF_64 as INF
 from planning.states import ClosedStates, StateTable, cheapest_unique
 
-SUCCESSOR_CHUNK = 8192    # parents per successor call of a level under a time limit
-H_CHUNK = 256             # states in the first heuristic call under a time limit (doubled while cheap)
-H_CHEAP = 0.05            # seconds: a heuristic call faster than this doubles the next chunk
-TIE_FIRST = 1             # with tie_break: states closed on the first visit of an (f, h) bucket (then 2, 4, ...)
+SUCCESSOR_CHUNK = 8192  # parents per successor call of a level under a time limit
+H_CHUNK = 256  # states in the first heuristic call under a time limit (doubled while cheap)
+H_CHEAP = 0.05  # seconds: a heuristic call faster than this doubles the next chunk
+TIE_FIRST = 1  # with tie_break: states closed on the first visit of an (f, h) bucket (then 2, 4, ...)
 
 
 class _OutOfTime(Exception):
@@ -48,8 +49,16 @@ class CostLevels:
     nothing is ever reopened. States whose h is infinite (dead ends) are never opened.
     """
 
-    def __init__(self, bm, start: int, max_states: int | None = None, time_limit: float | None = None,
-                 heuristic=None, after_step=None, tie_break: bool = False):
+    def __init__(
+        self,
+        bm,
+        start: int,
+        max_states: int | None = None,
+        time_limit: float | None = None,
+        heuristic=None,
+        after_step=None,
+        tie_break: bool = False,
+    ):
         """`after_step(batch) -> batch` rewrites generated states (the joint search completes stages);
         `tie_break`: within an f, lower h first (each yield then holds one f and one h)."""
         self.bm = bm
@@ -58,20 +67,20 @@ class CostLevels:
         self.max_states = max_states
         self.tie_break = bool(tie_break) and heuristic is not None
         self.closed = 0
-        self.reopened = 0               # closings of a state already closed at a larger g
-        self.exhausted = False          # True when every reachable state was closed
-        self.timed_out = False          # True when the time limit stopped the search
+        self.reopened = 0  # closings of a state already closed at a larger g
+        self.exhausted = False  # True when every reachable state was closed
+        self.timed_out = False  # True when the time limit stopped the search
         self._closed = ClosedStates(bm.n_words)
         # h of every state evaluated so far: an open state is generated again and
         # again from different parents, and a strong heuristic is the dear part.
         self._h_table = StateTable(bm.n_words)
         self._parents: list[np.ndarray] = []
         self._actions: list[np.ndarray] = []
-        self._version = 0               # bumped by rescore(); each open entry keeps the one it was scored under
-        self._allowance: dict = {}      # with tie_break: states the next visit of an (f, h) bucket closes
+        self._version = 0  # bumped by rescore(); each open entry keeps the one it was scored under
+        self._allowance: dict = {}  # with tie_break: states the next visit of an (f, h) bucket closes
         start_row = bm.pack([start])
         f0 = 0 if heuristic is None else int(heuristic(start_row)[0])
-        self.f = f0                     # the level being closed: a lower bound on any goal's cost
+        self.f = f0  # the level being closed: a lower bound on any goal's cost
         # The time limit bounds the search; what the heuristic builds on its first call (pattern
         # databases, kept for later searches) is done before the clock starts.
         self.deadline = None if time_limit is None else time.perf_counter() + time_limit
@@ -118,7 +127,7 @@ class CostLevels:
 
     def plan_to(self, state_id: int) -> list[int]:
         """The actions from the start to a closed state."""
-        if len(self._parents) > 1:          # joined once: a multi-goal search asks for several plans per level
+        if len(self._parents) > 1:  # joined once: a multi-goal search asks for several plans per level
             self._parents, self._actions = [np.concatenate(self._parents)], [np.concatenate(self._actions)]
         parents, actions = self._parents[0], self._actions[0]
         plan = []
@@ -217,7 +226,7 @@ class CostLevels:
         while lo < len(rows):
             self._check_time()
             t = time.perf_counter()
-            out[lo: lo + step] = self.h(rows[lo: lo + step])
+            out[lo : lo + step] = self.h(rows[lo : lo + step])
             lo += step
             if time.perf_counter() - t < H_CHEAP:
                 step *= 2
@@ -230,7 +239,7 @@ class CostLevels:
         parts = []
         for lo in range(0, len(rows), SUCCESSOR_CHUNK):
             self._check_time()
-            parent, action, child, cost, group, place = self.bm.successors(rows[lo: lo + SUCCESSOR_CHUNK], keyed=True)
+            parent, action, child, cost, group, place = self.bm.successors(rows[lo : lo + SUCCESSOR_CHUNK], keyed=True)
             parts.append((parent + lo, action, child, cost, group, place))
         self._check_time()
         parent, action, child, cost, group, place = (np.concatenate(x) for x in zip(*parts))
@@ -251,7 +260,7 @@ class CostLevels:
         parent, action, child, g_child = parent[keep], action[keep], child[keep], g_child[keep]
         if self.h is None:
             f_child = g_child
-        else:                                      # pathmax: h may be inconsistent (LM-cut)
+        else:  # pathmax: h may be inconsistent (LM-cut)
             h = self._cached_h(keys[keep], child)
             f_child = np.where(h >= INF, INF, np.maximum(g_child + h, f_parent))
         self._push(f_child, child, ids[parent], action, g_child)

@@ -9,6 +9,7 @@ expansion ledger that makes a pop stale. The depth cap gates open nodes only:
 a completing successor is a terminal at any depth. A state's successors, with
 their goal tests, are computed once per search.
 """
+
 from __future__ import annotations
 
 from heapq import heappush
@@ -27,7 +28,7 @@ def goal_test(task):
         return task.satisfied
     goals = tuple((b.pos, b.neg) for b in bindings)
     if len(goals) == 1:
-        (pos, neg), = goals
+        ((pos, neg),) = goals
         return lambda s: s & pos == pos and not s & neg
     return lambda s: any(s & p == p and not s & n for p, n in goals)
 
@@ -45,13 +46,13 @@ class SearchTree:
         self.depth: list = []
         self.G: list = []
         self.cost: list = []
-        self.seen = [{} for _ in range(cap + 1)]         # per depth: state -> best G admitted
-        self.expanded = [{} for _ in range(cap + 1)]     # per depth: state -> G when expanded
-        self.gpow = [gamma ** k for k in range(cap + 1)]
-        self.terminals: list = []                        # Terminal, in discovery order
-        self.terminal_node: list = []                    # per terminal: the node it was reached from (-1: none)
-        self.terminal_action: list = []                  # per terminal: the action from that node
-        self.succ_cache: dict = {}                       # state -> [(action, next state, cost, completes τ)]
+        self.seen = [{} for _ in range(cap + 1)]  # per depth: state -> best G admitted
+        self.expanded = [{} for _ in range(cap + 1)]  # per depth: state -> G when expanded
+        self.gpow = [gamma**k for k in range(cap + 1)]
+        self.terminals: list = []  # Terminal, in discovery order
+        self.terminal_node: list = []  # per terminal: the node it was reached from (-1: none)
+        self.terminal_action: list = []  # per terminal: the action from that node
+        self.succ_cache: dict = {}  # state -> [(action, next state, cost, completes τ)]
 
     def add_node(self, s: int, parent: int, action, d: int, G: float, c) -> int:
         nid = len(self.state)
@@ -117,12 +118,12 @@ class SearchTree:
             if hit:
                 admit(s2, d1, G2, c + k, nid, a, "search")
                 continue
-            if not is_open:                                                  # ENQUEUE line 2
+            if not is_open:  # ENQUEUE line 2
                 continue
             old = seen_d1.get(s2)
-            if old is not None and G2 <= old:                               # ENQUEUE line 3
+            if old is not None and G2 <= old:  # ENQUEUE line 3
                 continue
-            seen_d1[s2] = G2                                                 # line 4
+            seen_d1[s2] = G2  # line 4
             child = len(n_state)
             n_state.append(s2)
             n_parent.append(nid)
@@ -130,8 +131,8 @@ class SearchTree:
             n_depth.append(d1)
             n_G.append(G2)
             n_cost.append(c + k)
-            pending.append((child, next(tick)))          # line 5: on H_B with this counter at the next flush
-            w = width(s2, s2 & ~s if registered else None)                   # line 6
+            pending.append((child, next(tick)))  # line 5: on H_B with this counter at the next flush
+            w = width(s2, s2 & ~s if registered else None)  # line 6
             if w is not None:
                 heappush(h_novelty, (w, d1, next(tick), child))
         self.stats.generated += len(succ)
@@ -140,7 +141,7 @@ class SearchTree:
         """The actions of search terminal i: the path to the node it was reached from, then its action."""
         node = self.terminal_node[i]
         if node < 0:
-            return []                                    # the root completes τ
+            return []  # the root completes τ
         parent, action = self.parent, self.action
         out = [self.terminal_action[i]]
         while parent[node] >= 0:

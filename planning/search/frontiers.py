@@ -19,6 +19,7 @@ order it was enqueued in.
   recomputes the width, drops a node no longer novel and re-pushes one whose
   width got worse.
 """
+
 from __future__ import annotations
 
 from heapq import heappop, heappush
@@ -37,9 +38,9 @@ class BellmanFrontier:
     def __init__(self, tree: SearchTree, value, task, tick, prefetch: int, stats: BNStats):
         self.tree, self.value, self.task, self.tick = tree, value, task, tick
         self.prefetch, self.stats = prefetch, stats
-        self.heap: list = []              # (-(G + γ^d q_max), counter, node)
-        self.pending: list = []           # (node, counter) enqueued but not yet valued and pushed
-        self.q: dict = {}                 # state -> q_max(state, τ)
+        self.heap: list = []  # (-(G + γ^d q_max), counter, node)
+        self.pending: list = []  # (node, counter) enqueued but not yet valued and pushed
+        self.q: dict = {}  # state -> q_max(state, τ)
 
     def enqueue(self, nid: int) -> None:
         """Line 5: the node goes on H_B at the next flush, with the counter it gets now."""
@@ -52,11 +53,12 @@ class BellmanFrontier:
         need = list(dict.fromkeys(n_state[nid] for nid, _ in pending if n_state[nid] not in q_cache))
         if need and prefetch > len(need):
             # The children of these states are the likely next pushes: value them in the same call.
-            extra = dict.fromkeys(s2 for s in need for _, s2, _, hit in tree.successors_of(s)
-                                  if not hit and s2 not in q_cache)
+            extra = dict.fromkeys(
+                s2 for s in need for _, s2, _, hit in tree.successors_of(s) if not hit and s2 not in q_cache
+            )
             for s in need:
                 extra.pop(s, None)
-            need += list(extra)[:prefetch - len(need)]
+            need += list(extra)[: prefetch - len(need)]
         if need:
             stats = self.stats
             t0 = perf_counter()
@@ -83,8 +85,8 @@ class NoveltyFrontier:
     def __init__(self, tree: SearchTree, n_atoms: int, tick, stats: BNStats):
         self.tree, self.tick, self.stats = tree, tick, stats
         self.tables = NoveltyTables(n_atoms)
-        self.heap: list = []              # (width, depth, counter, node)
-        self.widths: dict = {}            # state -> (tables version, width)
+        self.heap: list = []  # (width, depth, counter, node)
+        self.widths: dict = {}  # state -> (tables version, width)
 
     def width(self, s: int, added: int | None = None) -> int | None:
         """WIDTH(s; A, P), cached per state while the tables are unchanged (not novel is for good)."""
@@ -114,7 +116,7 @@ class NoveltyFrontier:
         while heap:
             w_old, d, _, nid = heappop(heap)
             s = n_state[nid]
-            if d >= cap or expanded[d].get(s, -INF) >= n_G[nid]:           # SearchTree.is_stale, inlined
+            if d >= cap or expanded[d].get(s, -INF) >= n_G[nid]:  # SearchTree.is_stale, inlined
                 stats.novelty_skipped += 1
                 continue
             w = width(s)

@@ -17,6 +17,7 @@ Two compilations of the same window:
   primitive actions are blocked while the current stage's goal holds and
   zero-cost completion actions fire in first-binding order.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -59,7 +60,7 @@ class JointSearch:
                 continue
             sub = batch[rows]
             pending = np.ones(len(rows), dtype=bool)
-            for op in task.bindings:          # the first satisfied binding consumes
+            for op in task.bindings:  # the first satisfied binding consumes
                 pos, neg = self.bm.pack([op.pos])[0], self.bm.pack([op.neg])[0]
                 hold = pending & ((sub & pos) == pos).all(1) & ((sub & neg) == 0).all(1)
                 if hold.any():
@@ -72,8 +73,15 @@ class JointSearch:
             batch[rows] = sub
         return batch
 
-    def plan(self, state: int, tasks: list, max_states: int | None = None,
-             time_limit: float | None = None, heuristic: str = "pdb", weight: int = 1) -> SearchResult:
+    def plan(
+        self,
+        state: int,
+        tasks: list,
+        max_states: int | None = None,
+        time_limit: float | None = None,
+        heuristic: str = "pdb",
+        weight: int = 1,
+    ) -> SearchResult:
         """An optimal plan that completes the tasks in order from a world state.
 
         heuristic: a name of the registry's "window" rows (planning.heuristics), each state scored on
@@ -102,15 +110,20 @@ class JointSearch:
                 out[sel] = stages_left(batch[sel], tasks[k:])
             return np.where(out >= INF_64, INF_64, out * weight)
 
-        levels = CostLevels(self.bm, self.bm.unpack(start)[0], max_states, time_limit, heuristic=h,
-                            after_step=lambda b: self._complete(b, tasks))
+        levels = CostLevels(
+            self.bm,
+            self.bm.unpack(start)[0],
+            max_states,
+            time_limit,
+            heuristic=h,
+            after_step=lambda b: self._complete(b, tasks),
+        )
         w, b = self._stage_word(K)
         for _, rows, ids, g in levels:
             hit = np.flatnonzero((rows[:, w] & b) != 0)
             if len(hit):
                 i = hit[np.argmin(g[hit])]
-                return SearchResult(levels.plan_to(int(ids[i])), int(g[i]), levels.closed, True,
-                                    -(-levels.f // weight))
+                return SearchResult(levels.plan_to(int(ids[i])), int(g[i]), levels.closed, True, -(-levels.f // weight))
         return SearchResult(None, None, levels.closed, levels.exhausted, -(-levels.f // weight))
 
 
@@ -125,8 +138,9 @@ def joint_up_problem(model, state: int, tasks: list):
     problem = up_problem(model, problem_text(model, state, "(and)"))
     em = problem.environment.expression_manager
     atom = lambda key: problem.fluent(key[0])(*(problem.object(o) for o in key[1:]))
-    lits = lambda mask, value: [atom(model.atoms[i]) if value else Not(atom(model.atoms[i]))
-                                for i in range(mask.bit_length()) if mask >> i & 1]
+    lits = lambda mask, value: [
+        atom(model.atoms[i]) if value else Not(atom(model.atoms[i])) for i in range(mask.bit_length()) if mask >> i & 1
+    ]
     conj = lambda op: And(*lits(op.pos, True), *lits(op.neg, False)) if (op.pos or op.neg) else em.TRUE()
     K = len(tasks)
     stages = [Fluent(f"stage-{k}", BoolType()) for k in range(K + 1)]
@@ -135,7 +149,7 @@ def joint_up_problem(model, state: int, tasks: list):
     goals = [Or(*[conj(op) for op in t.bindings]) for t in tasks]
     old = problem.quality_metrics[0]
     costs = dict(old.costs)
-    for action in problem.actions:            # a task completes as soon as its goal holds
+    for action in problem.actions:  # a task completes as soon as its goal holds
         for k in range(K):
             action.add_precondition(Or(Not(stages[k]()), Not(goals[k])))
     for k, task in enumerate(tasks):

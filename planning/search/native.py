@@ -12,6 +12,7 @@ Floating point: kernels are built with `-ffp-contract=off` and without
 and no sum is reordered: the results are the same with or without
 `-march=native` (tried first; dropped where the compiler refuses it).
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -66,9 +67,10 @@ def _build(src: Path) -> ctypes.CDLL | None:
             if not lib.is_file():
                 lib.parent.mkdir(parents=True, exist_ok=True)
                 tmp = lib.with_name(f"{lib.name}.{os.getpid()}.tmp")
-                subprocess.run([cc, *flags, "-o", str(tmp), str(src), "-lm"], check=True, capture_output=True,
-                               timeout=120)
-                os.replace(tmp, lib)      # atomic: processes building at once never load half a file
+                subprocess.run(
+                    [cc, *flags, "-o", str(tmp), str(src), "-lm"], check=True, capture_output=True, timeout=120
+                )
+                os.replace(tmp, lib)  # atomic: processes building at once never load half a file
             return ctypes.CDLL(str(lib))
         except (OSError, subprocess.SubprocessError):
             continue

@@ -18,6 +18,7 @@ numpy bool arrays for inspection. `version` changes exactly when the tables
 do, so a caller may cache a state's width per version; a state found not
 novel stays not novel.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -38,9 +39,9 @@ class NoveltyTables:
 
     def __init__(self, n_atoms: int):
         self.n_atoms = n_atoms
-        self.atoms = 0                       # bit i: atom i registered
-        self.rows = [0] * n_atoms            # rows[i] bit j: pair {i, j} registered
-        self.version = 0                     # bumped whenever a registration adds something
+        self.atoms = 0  # bit i: atom i registered
+        self.rows = [0] * n_atoms  # rows[i] bit j: pair {i, j} registered
+        self.version = 0  # bumped whenever a registration adds something
 
     def width(self, state: int, added: int | None = None) -> int | None:
         """1 if some atom of `state` is unregistered, else 2 if some pair is, else None (not novel).
@@ -69,7 +70,7 @@ class NoveltyTables:
     def register(self, state: int) -> bool:
         """Add the state's atoms and all pairs of them to the tables; True if that changed them."""
         rows = self.rows
-        if state.bit_length() > len(rows):          # a model that did not say how many atoms it has
+        if state.bit_length() > len(rows):  # a model that did not say how many atoms it has
             rows.extend([0] * (state.bit_length() - len(rows)))
             self.n_atoms = len(rows)
         changed = False

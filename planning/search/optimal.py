@@ -1,4 +1,5 @@
 """Exact in-process search on the compiled model."""
+
 from __future__ import annotations
 
 import heapq
@@ -9,10 +10,10 @@ import numpy as np
 
 @dataclass
 class SearchResult:
-    plan: list | None          # ground action indices; None if no plan exists
+    plan: list | None  # ground action indices; None if no plan exists
     cost: int | None
     expansions: int
-    complete: bool = True      # False if a limit stopped the search before a verdict
+    complete: bool = True  # False if a limit stopped the search before a verdict
     lower_bound: int | None = None  # proven lower bound on the optimal cost (the last f-level closed)
 
 
@@ -53,9 +54,15 @@ def uniform_cost_search(model, state: int, task, max_expansions: int | None = No
     return SearchResult(None, None, expansions, complete=not frontier)
 
 
-def optimal_plan(bm, state: int, task, max_states: int | None = None,
-                 time_limit: float | None = None, heuristic: str | None = None,
-                 tie_break: bool | None = None) -> SearchResult:
+def optimal_plan(
+    bm,
+    state: int,
+    task,
+    max_states: int | None = None,
+    time_limit: float | None = None,
+    heuristic: str | None = None,
+    tie_break: bool | None = None,
+) -> SearchResult:
     """An optimal plan for one task: A* by f-levels, expanding each level in one numpy call.
 
     heuristic: a name of the registry's "task" rows (planning.heuristics), e.g. "pdb" (the layout's pattern
@@ -81,9 +88,16 @@ def default_heuristic(model) -> str:
     return "pdb" if getattr(model, "axioms", None) is None else "lmcut"
 
 
-def optimal_plans(bm, state: int, goals: list, max_states: int | None = None,
-                  time_limit: float | None = None, heuristic: str | None = None, prefer=None,
-                  tie_break: bool | None = None) -> list[SearchResult]:
+def optimal_plans(
+    bm,
+    state: int,
+    goals: list,
+    max_states: int | None = None,
+    time_limit: float | None = None,
+    heuristic: str | None = None,
+    prefer=None,
+    tie_break: bool | None = None,
+) -> list[SearchResult]:
     """An optimal plan for each of several goals from one A* (e.g. a task with each of ten clauses).
 
     The heuristic is the minimum over the goals still unreached of their admissible estimates,
@@ -105,7 +119,7 @@ def optimal_plans(bm, state: int, goals: list, max_states: int | None = None,
 
     if not goals:
         return []
-    nearest = build(heuristic or default_heuristic(bm.model), bm, "task")     # None: blind, Dijkstra
+    nearest = build(heuristic or default_heuristic(bm.model), bm, "task")  # None: blind, Dijkstra
     open_ = np.ones(len(goals), dtype=bool)
 
     def h(batch):
@@ -115,8 +129,9 @@ def optimal_plans(bm, state: int, goals: list, max_states: int | None = None,
     out: list[SearchResult | None] = [None] * len(goals)
     if tie_break is None:
         tie_break = TIE_BREAK
-    levels = CostLevels(bm, state, max_states, time_limit, heuristic=None if nearest is None else h,
-                        tie_break=tie_break)
+    levels = CostLevels(
+        bm, state, max_states, time_limit, heuristic=None if nearest is None else h, tie_break=tie_break
+    )
     for _, rows, ids, g in levels:
         reached = False
         for k in np.flatnonzero(open_):
@@ -126,11 +141,11 @@ def optimal_plans(bm, state: int, goals: list, max_states: int | None = None,
                 tries = (levels.plan_to(int(ids[i])) for i in best[: PREFER_TRIES if prefer is not None else 1])
                 plan = next(tries)
                 if prefer is not None and not prefer(int(k), plan):
-                    plan = next((p for p in tries if prefer(int(k), p)), plan)   # else the first
+                    plan = next((p for p in tries if prefer(int(k), p)), plan)  # else the first
                 out[k] = SearchResult(plan, int(g[best[0]]), levels.closed, True)
                 open_[k], reached = False, True
         if not open_.any():
             break
         if reached:
-            levels.rescore()                 # the minimum is over fewer goals now: states opened before may wait
+            levels.rescore()  # the minimum is over fewer goals now: states opened before may wait
     return [r if r is not None else SearchResult(None, None, levels.closed, levels.exhausted) for r in out]

@@ -10,6 +10,7 @@ by V_AP of their post-consumption state (`score_eligible`), and the highest
 V_AP wins, then the lower cost, the smaller depth, the earlier discovery
 (`select_terminal`).
 """
+
 from __future__ import annotations
 
 import time
@@ -23,12 +24,12 @@ from planning.search.bn_stats import BNStats
 class Terminal(NamedTuple):
     """A candidate completion of the current task, in discovery order."""
 
-    source: str                   # "reference" (the myopic plan) or "search"
-    cost: float                   # undiscounted PDDL cost of the prefix
+    source: str  # "reference" (the myopic plan) or "search"
+    cost: float  # undiscounted PDDL cost of the prefix
     depth: int
-    G: float                      # discounted prefix return (RL units, ≤ 0)
-    state: int                    # the completing state, before consumption
-    v_ap: float | None = None     # V_AP of the post-consumption state; None if not scored (ineligible)
+    G: float  # discounted prefix return (RL units, ≤ 0)
+    state: int  # the completing state, before consumption
+    v_ap: float | None = None  # V_AP of the post-consumption state; None if not scored (ineligible)
 
 
 def within(cost: float, bound: float) -> bool:
@@ -55,8 +56,9 @@ def select_terminal(terminals: list, c_myo: float | None, beta: float) -> int | 
     return best
 
 
-def reference_terminal(model, state: int, task, goal, reference_plan: list, gamma: float,
-                       scale: float) -> tuple[Terminal, list]:
+def reference_terminal(
+    model, state: int, task, goal, reference_plan: list, gamma: float, scale: float
+) -> tuple[Terminal, list]:
     """Algorithm 3, lines 2-3: the myopic reference plan replayed from the root and cut where τ first holds.
 
     goal: the task's goal test. Returns the terminal (source "reference") and
@@ -77,8 +79,9 @@ def reference_terminal(model, state: int, task, goal, reference_plan: list, gamm
     return Terminal("reference", c, len(prefix), G, s), prefix
 
 
-def score_eligible(terminals: list, c_myo: float | None, beta: float, task, v_ap,
-                   stats: BNStats) -> tuple[list, float | None, int]:
+def score_eligible(
+    terminals: list, c_myo: float | None, beta: float, task, v_ap, stats: BNStats
+) -> tuple[list, float | None, int]:
     """V_AP of the post-consumption states of the terminals within β·C_myo, in one call of `v_ap`.
 
     Returns (the terminals with `v_ap` set where eligible, C_myo, the number

@@ -24,6 +24,7 @@ from its command line and name its results file; `summary` and `set_log` are
 what the runner and the command call on every agent, with defaults that add
 nothing. A class's docstring's first line describes it in `--list-agents`.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -34,7 +35,7 @@ class Reply:
     """A planner's answer for one task: the plan (None if it found none) and what to record."""
 
     plan: list | None
-    info: dict = field(default_factory=dict)     # e.g. {"status": "solved", "expansions": 1234}
+    info: dict = field(default_factory=dict)  # e.g. {"status": "solved", "expansions": 1234}
 
 
 class Agent:

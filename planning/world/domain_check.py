@@ -31,6 +31,7 @@ problem on stderr, `error: FILE:LINE: what` or `warning: FILE:LINE: what` (the
 line where it is known). Exit status 0 when there is no error (warnings alone
 are fine), 2 on any error.
 """
+
 from __future__ import annotations
 
 import re
@@ -46,15 +47,18 @@ from planning.errors import DomainError
 KNOWN_TABLES = ("layouts", "tasks", "reset", "coordinates", "heads", "stream", "reward", "training", "search", "gnn")
 """The top-level tables of domain.toml that some tool reads."""
 LAYOUT_KEYS = ("problem", "rooms", "tasks", "reset", "coordinates")
-STREAM_KEYS = {"tasks_per_reset": "a positive integer", "max_actions": "a positive integer",
-               "first_task": "a task instance such as \"clear(c)\"", "terminal_reset": "true or false"}
+STREAM_KEYS = {
+    "tasks_per_reset": "a positive integer",
+    "max_actions": "a positive integer",
+    "first_task": 'a task instance such as "clear(c)"',
+    "terminal_reset": "true or false",
+}
 REWARD_KEYS = {"cost_scale": "a positive number", "goal_reward": "a number", "gamma": "a number in (0, 1]"}
-SEARCH_KEYS = {"beta": "a number of at least 1", "budget": "a non-negative integer",
-               "depth_cap": "a positive integer"}
+SEARCH_KEYS = {"beta": "a number of at least 1", "budget": "a non-negative integer", "depth_cap": "a positive integer"}
 SEARCH_DEFAULTS = {"beta": 1.0, "budget": 5000, "depth_cap": 20}
 """learning.agents.guided's defaults where [search] does not give a value."""
 HORIZONS = ("myopic", "anticipatory")
-MAX_WORLDS = 256           # reset worlds checked (the combinations of [[reset]] choices)
+MAX_WORLDS = 256  # reset worlds checked (the combinations of [[reset]] choices)
 
 
 @dataclass(frozen=True)
@@ -73,7 +77,7 @@ class Problem:
 
 @dataclass
 class LayoutSummary:
-    domain: str                 # the PDDL define
+    domain: str  # the PDDL define
     layout: str
     atoms: int
     actions: int
@@ -83,7 +87,7 @@ class LayoutSummary:
     worlds: int
     rooms: int
     locations: int
-    costs: dict = field(default_factory=dict)     # task type -> [(instance name, probability, cost or None)]
+    costs: dict = field(default_factory=dict)  # task type -> [(instance name, probability, cost or None)]
 
 
 # ---- lines in domain.toml and the PDDL files ------------------------------------------------
@@ -146,7 +150,7 @@ class Lines:
         """(file, line) of a front-end error, from what its message names."""
         where, reason = e.where, e.reason
         m = re.match(r"^(.*\.(?:pddl|toml)):(\d+)$", where)
-        if m:                                   # the front end named the line itself
+        if m:  # the front end named the line itself
             return m.group(1), int(m.group(2))
         path = Path(where)
         if path.suffix == ".toml":
@@ -289,8 +293,12 @@ class Checker:
                 continue
             for key in entry:
                 if key not in LAYOUT_KEYS:
-                    self.warn(f"[layouts.{name}] has unknown key '{key}' (known: {', '.join(LAYOUT_KEYS)})",
-                              "layouts", name, key)
+                    self.warn(
+                        f"[layouts.{name}] has unknown key '{key}' (known: {', '.join(LAYOUT_KEYS)})",
+                        "layouts",
+                        name,
+                        key,
+                    )
         self._check_tasks()
         self._check_keys("stream", STREAM_KEYS)
         stream = cfg.get("stream", {})
@@ -299,11 +307,17 @@ class Checker:
                 if key in stream and not _positive_int(stream[key]):
                     self.error(f"[stream] {key} is {stream[key]!r}, not {STREAM_KEYS[key]}", "stream", key)
             if "terminal_reset" in stream and not isinstance(stream["terminal_reset"], bool):
-                self.error(f"[stream] terminal_reset is {stream['terminal_reset']!r}, not true or false",
-                           "stream", "terminal_reset")
+                self.error(
+                    f"[stream] terminal_reset is {stream['terminal_reset']!r}, not true or false",
+                    "stream",
+                    "terminal_reset",
+                )
             if "first_task" in stream and not isinstance(stream["first_task"], str):
-                self.error(f"[stream] first_task is {stream['first_task']!r}, not {STREAM_KEYS['first_task']}",
-                           "stream", "first_task")
+                self.error(
+                    f"[stream] first_task is {stream['first_task']!r}, not {STREAM_KEYS['first_task']}",
+                    "stream",
+                    "first_task",
+                )
         self._check_reward()
         self._check_search(layouts)
         self._check_training(layouts)
@@ -328,7 +342,7 @@ class Checker:
                 ok = False
         layouts = self.config.get("layouts", {})
         shared = any(not (isinstance(e, dict) and "tasks" in e) for e in layouts.values())
-        if ok and shared:              # some layout reads [tasks] as it is (the others: their overrides, compiled)
+        if ok and shared:  # some layout reads [tasks] as it is (the others: their overrides, compiled)
             total = sum(float(t["probability"]) for t in table.values())
             if abs(total - 1.0) > 1e-9:
                 self.error(f"task type probabilities sum to {total:g}, not 1", "tasks")
@@ -350,12 +364,17 @@ class Checker:
         if not isinstance(reward, dict):
             return
         if "cost_scale" not in reward:
-            self.warn("no [reward] cost_scale: the learners take 1 PDDL cost unit per reward unit (the restaurant "
-                      "uses 100); set it to the cost of a typical action over the reward you mean it to have",
-                      "reward")
+            self.warn(
+                "no [reward] cost_scale: the learners take 1 PDDL cost unit per reward unit (the restaurant "
+                "uses 100); set it to the cost of a typical action over the reward you mean it to have",
+                "reward",
+            )
         elif not _number(reward["cost_scale"]) or reward["cost_scale"] <= 0:
-            self.error(f"[reward] cost_scale is {reward['cost_scale']!r}, not {REWARD_KEYS['cost_scale']}",
-                       "reward", "cost_scale")
+            self.error(
+                f"[reward] cost_scale is {reward['cost_scale']!r}, not {REWARD_KEYS['cost_scale']}",
+                "reward",
+                "cost_scale",
+            )
         if "goal_reward" in reward and not _number(reward["goal_reward"]):
             self.error(f"[reward] goal_reward is {reward['goal_reward']!r}, not a number", "reward", "goal_reward")
         if "gamma" in reward and (not _number(reward["gamma"]) or not 0 < reward["gamma"] <= 1):
@@ -365,8 +384,11 @@ class Checker:
         self._check_keys("search", SEARCH_KEYS)
         search = self.config.get("search")
         if search is None:
-            self.warn("no [search]: rl-guided takes beta = 1.0 (it then plays exactly the myopic plan), budget "
-                      "5000 and depth_cap 20; set [search] beta (> 1 lets it leave the myopic plan)", "search")
+            self.warn(
+                "no [search]: rl-guided takes beta = 1.0 (it then plays exactly the myopic plan), budget "
+                "5000 and depth_cap 20; set [search] beta (> 1 lets it leave the myopic plan)",
+                "search",
+            )
             return
         if not isinstance(search, dict):
             return
@@ -402,8 +424,12 @@ class Checker:
                 continue
             for sel, inner in value.items():
                 if sel not in layouts and sel not in HORIZONS:
-                    self.warn(f"[training] {key} is keyed by '{sel}', neither a layout ({', '.join(layouts)}) "
-                              f"nor a horizon ({', '.join(HORIZONS)})", "training", key)
+                    self.warn(
+                        f"[training] {key} is keyed by '{sel}', neither a layout ({', '.join(layouts)}) "
+                        f"nor a horizon ({', '.join(HORIZONS)})",
+                        "training",
+                        key,
+                    )
                 elif sel in layouts and isinstance(inner, dict):
                     bad = [h for h in inner if h not in HORIZONS]
                     if bad:
@@ -413,8 +439,9 @@ class Checker:
         tables = [(("coordinates",), "[coordinates]", self.config.get("coordinates"))]
         for layout, entry in self.config.get("layouts", {}).items():
             if isinstance(entry, dict) and "coordinates" in entry:
-                tables.append((("layouts", layout, "coordinates"), f"[layouts.{layout}.coordinates]",
-                               entry["coordinates"]))
+                tables.append(
+                    (("layouts", layout, "coordinates"), f"[layouts.{layout}.coordinates]", entry["coordinates"])
+                )
         for path, label, coords in tables:
             if coords is None:
                 continue
@@ -437,8 +464,9 @@ class Checker:
             self.front_end(e)
             return None
         except Exception as e:  # a parser or grounder crash is still one line about this layout
-            self.error(f"layout {layout}: cannot compile ({type(e).__name__}: {' '.join(str(e).split())})",
-                       "layouts", layout)
+            self.error(
+                f"layout {layout}: cannot compile ({type(e).__name__}: {' '.join(str(e).split())})", "layouts", layout
+            )
             return None
         total = float(sum(t.probability for t in model.tasks))
         if abs(total - 1.0) > 1e-9:
@@ -449,8 +477,18 @@ class Checker:
         rooms, locations = self._check_rooms(model)
         worlds = reset_worlds(model)
         self._check_heads(model, worlds)
-        summary = LayoutSummary(model.name, layout, model.n_atoms, model.n_actions, len(model.tasks),
-                                len({t.type for t in model.tasks}), len(model.resets), len(worlds), rooms, locations)
+        summary = LayoutSummary(
+            model.name,
+            layout,
+            model.n_atoms,
+            model.n_actions,
+            len(model.tasks),
+            len({t.type for t in model.tasks}),
+            len(model.resets),
+            len(worlds),
+            rooms,
+            locations,
+        )
         if self.costs:
             summary.costs = self._myopic_costs(model)
         self.summaries.append(summary)
@@ -465,8 +503,12 @@ class Checker:
             return model.tasks.get(first)
         except DomainError:
             names = ", ".join(t.name for t in list(model.tasks)[:4])
-            self.error(f"[stream] first_task '{first}' is not a task instance of layout {model.layout} "
-                       f"(instances: {names}{', ...' if len(model.tasks) > 4 else ''})", "stream", "first_task")
+            self.error(
+                f"[stream] first_task '{first}' is not a task instance of layout {model.layout} "
+                f"(instances: {names}{', ...' if len(model.tasks) > 4 else ''})",
+                "stream",
+                "first_task",
+            )
             return False
 
     def _check_unused_types(self, model, first) -> None:
@@ -475,8 +517,11 @@ class Checker:
             by_type[t.type] = by_type.get(t.type, 0.0) + t.probability
         for ttype, p in by_type.items():
             if p == 0 and (first is None or first.type != ttype):
-                self.warn(f"task type {ttype} has probability 0 and is not [stream] first_task: no stream draws it",
-                          "tasks", ttype)
+                self.warn(
+                    f"task type {ttype} has probability 0 and is not [stream] first_task: no stream draws it",
+                    "tasks",
+                    ttype,
+                )
 
     def _check_coordinate_objects(self, models: list) -> None:
         """A warning for a [coordinates] entry that names an object of no layout (a typo)."""
@@ -491,19 +536,28 @@ class Checker:
             own = self.config["layouts"][m.layout].get("coordinates")
             for name in own if isinstance(own, dict) else ():
                 if name not in m.objects:
-                    self.warn(f"[layouts.{m.layout}.coordinates] {name}: no such object in layout {m.layout}",
-                              "layouts", m.layout, "coordinates", name)
+                    self.warn(
+                        f"[layouts.{m.layout}.coordinates] {name}: no such object in layout {m.layout}",
+                        "layouts",
+                        m.layout,
+                        "coordinates",
+                        name,
+                    )
 
     def _check_rooms(self, model) -> tuple[int, int]:
         layout = model.layout
         rooms = model.config.get("layouts", {}).get(layout, {}).get("rooms")
         path = ("layouts", layout, "rooms")
         if rooms is None:
-            self.warn(f"layout {layout} has no rooms: the searches cannot use pattern databases (they take LM-cut, "
-                      "slower on large layouts) and the GNN graph has no rooms", *path)
+            self.warn(
+                f"layout {layout} has no rooms: the searches cannot use pattern databases (they take LM-cut, "
+                "slower on large layouts) and the GNN graph has no rooms",
+                *path,
+            )
             return 0, 0
-        if not isinstance(rooms, dict) or not all(isinstance(v, list) and all(isinstance(o, str) for o in v)
-                                                  for v in rooms.values()):
+        if not isinstance(rooms, dict) or not all(
+            isinstance(v, list) and all(isinstance(o, str) for o in v) for v in rooms.values()
+        ):
             self.error(f"rooms of layout {layout} must be a table room = [locations], not {rooms!r}", *path)
             return 0, 0
         known = set(model.objects)
@@ -511,11 +565,15 @@ class Checker:
         for room, objs in rooms.items():
             for o in objs:
                 if o not in known:
-                    self.error(f"room {room} of layout {layout} lists '{o}', which is not an object of its problem",
-                               *path)
+                    self.error(
+                        f"room {room} of layout {layout} lists '{o}', which is not an object of its problem", *path
+                    )
                 elif o in seen and seen[o] != room:
-                    self.warn(f"'{o}' is in two rooms of layout {layout} ({seen[o]} and {room}): a location "
-                              "belongs to one room", *path)
+                    self.warn(
+                        f"'{o}' is in two rooms of layout {layout} ({seen[o]} and {room}): a location "
+                        "belongs to one room",
+                        *path,
+                    )
                 seen.setdefault(o, room)
         listed = [o for o in seen if o in known]
         families = {_family(model, o) for o in listed}
@@ -523,9 +581,12 @@ class Checker:
         missing = [o for o in dict.fromkeys(candidates) if o not in seen]
         if missing:
             shown = ", ".join(missing[:5]) + (", ..." if len(missing) > 5 else "")
-            self.warn(f"{len(missing)} location{'s' if len(missing) > 1 else ''} of layout {layout} in no room "
-                      f"({shown}): the pattern databases track them as objects, many times slower (the labelling "
-                      "oracle, the GNN dataset); list every location in one room", *path)
+            self.warn(
+                f"{len(missing)} location{'s' if len(missing) > 1 else ''} of layout {layout} in no room "
+                f"({shown}): the pattern databases track them as objects, many times slower (the labelling "
+                "oracle, the GNN dataset); list every location in one room",
+                *path,
+            )
         return len(rooms), len(listed)
 
     def _check_heads(self, model, worlds: list[int]) -> None:
@@ -559,13 +620,18 @@ class Checker:
         for t, r in zip(tasks, results):
             out.setdefault(t.type, []).append((t.name, t.probability, r.cost))
             if r.cost is None and r.complete:
-                self.error(f"task {t.name} cannot be completed from the start state of layout {model.layout} "
-                           "(no plan exists)", file=model.files["tasks"],
-                           line=pddl_line(Path(model.files["tasks"]), f"task {t.type}"))
+                self.error(
+                    f"task {t.name} cannot be completed from the start state of layout {model.layout} (no plan exists)",
+                    file=model.files["tasks"],
+                    line=pddl_line(Path(model.files["tasks"]), f"task {t.type}"),
+                )
             elif r.cost is None:
-                self.warn(f"task {t.name}: no plan found from the start state of layout {model.layout} within "
-                          f"{self.time_limit:g} s (--time-limit)", file=model.files["tasks"],
-                          line=pddl_line(Path(model.files["tasks"]), f"task {t.type}"))
+                self.warn(
+                    f"task {t.name}: no plan found from the start state of layout {model.layout} within "
+                    f"{self.time_limit:g} s (--time-limit)",
+                    file=model.files["tasks"],
+                    line=pddl_line(Path(model.files["tasks"]), f"task {t.type}"),
+                )
         return out
 
 
@@ -620,29 +686,36 @@ def cost_text(instances: list) -> str:
 
 
 def summary_lines(s: LayoutSummary) -> list[str]:
-    rooms = (f"{s.rooms} room{'s' if s.rooms != 1 else ''} ({s.locations} locations)" if s.rooms else "no rooms")
-    lines = [f"{s.domain} {s.layout}: {s.atoms} atoms, {s.actions} ground actions, {s.tasks} task instances of "
-             f"{s.types} type{'s' if s.types != 1 else ''}, {s.resets} reset entr{'ies' if s.resets != 1 else 'y'} "
-             f"({s.worlds} world{'s' if s.worlds != 1 else ''}), {rooms}"]
+    rooms = f"{s.rooms} room{'s' if s.rooms != 1 else ''} ({s.locations} locations)" if s.rooms else "no rooms"
+    lines = [
+        f"{s.domain} {s.layout}: {s.atoms} atoms, {s.actions} ground actions, {s.tasks} task instances of "
+        f"{s.types} type{'s' if s.types != 1 else ''}, {s.resets} reset entr{'ies' if s.resets != 1 else 'y'} "
+        f"({s.worlds} world{'s' if s.worlds != 1 else ''}), {rooms}"
+    ]
     if s.costs:
-        lines.append("  myopic cost from the start state: "
-                     + "; ".join(f"{t} {cost_text(inst)}" for t, inst in s.costs.items()))
+        lines.append(
+            "  myopic cost from the start state: " + "; ".join(f"{t} {cost_text(inst)}" for t, inst in s.costs.items())
+        )
     return lines
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0], out=None,
-                   helps={"layout": "check only this layout (default: every layout)"})
+    p = cli.parser(
+        __doc__.splitlines()[0], out=None, helps={"layout": "check only this layout (default: every layout)"}
+    )
     p.add_argument("folder", nargs="?", default=None, help="domain folder (default: --domain)")
     p.add_argument("--no-costs", action="store_true", help="skip the myopic costs from the start state")
-    p.add_argument("--time-limit", type=float, default=20.0,
-                   help="seconds for the myopic costs of one layout (default: %(default)s)")
+    p.add_argument(
+        "--time-limit",
+        type=float,
+        default=20.0,
+        help="seconds for the myopic costs of one layout (default: %(default)s)",
+    )
     args = p.parse_args()
     if not args.time_limit > 0:
         raise DomainError("--time-limit", f"must be positive, not {args.time_limit}")
     folder = Path(args.folder or args.domain)
-    checker = Checker(folder, None if args.layout is None else [args.layout], not args.no_costs,
-                      args.time_limit).run()
+    checker = Checker(folder, None if args.layout is None else [args.layout], not args.no_costs, args.time_limit).run()
     for s in checker.summaries:
         print("\n".join(summary_lines(s)))
     for prob in checker.problems:

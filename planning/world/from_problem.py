@@ -17,6 +17,7 @@ exact planner, Fast Downward's through the bridge, the oracles. A domain without
 :action-costs charges every action 1, so the task's optimal cost is the plan length.
 An existing DIR is refused unless it holds exactly the files this command writes.
 """
+
 from __future__ import annotations
 
 import re
@@ -40,7 +41,7 @@ def _problem_goal(path: Path, text: str) -> tuple[str, str]:
     goal, name = None, None
     for node in _sections(nodes):
         if node.head == ":goal" and len(node.items) == 2 and isinstance(node.items[1], Node):
-            goal = text[node.items[1].start:node.items[1].end]
+            goal = text[node.items[1].start : node.items[1].end]
         elif node.head == "problem" and len(node.items) > 1 and isinstance(node.items[1], Token):
             name = node.items[1].text
     if goal is None:
@@ -60,7 +61,7 @@ def _domain_header(path: Path, text: str) -> tuple[str, str]:
                 if isinstance(x, Node) and x.head == "domain" and len(x.items) > 1:
                     name = x.items[1].text
                 elif isinstance(x, Node) and x.head == ":requirements":
-                    reqs = text[x.start:x.end]
+                    reqs = text[x.start : x.end]
     if name is None:
         raise DomainError(path, "has no (define (domain NAME) ...)")
     return name, reqs
@@ -91,16 +92,20 @@ def wrap(domain: Path, problem: Path, out: Path, layout: str | None = None) -> P
     problem_file = f"{layout}.pddl"
     if problem_file in ("domain.pddl", "tasks.pddl"):
         raise DomainError("--layout", f"'{layout}' would overwrite {problem_file}")
-    tasks = (f"; The problem {problem_name}'s goal as the one task ({problem.name}, wrapped by\n"
-             f"; python -m planning.world.from_problem).\n"
-             f"(define (domain {name}-tasks)\n"
-             + (f"  {reqs}\n" if reqs else "")
-             + f"  (:action {TASK}\n    :parameters ()\n    :precondition {goal}\n    :effect (and)))\n")
-    toml = (f"# {domain.name} and {problem.name} wrapped as a one-task folder\n"
-            f"# (python -m planning.world.from_problem).\n\n"
-            f"[layouts.{layout}]\nproblem = \"{problem_file}\"\n\n"
-            f"[tasks.{TASK}]\nprobability = 1.0\n\n"
-            f"[stream]\ntasks_per_reset = 1\n")
+    tasks = (
+        f"; The problem {problem_name}'s goal as the one task ({problem.name}, wrapped by\n"
+        f"; python -m planning.world.from_problem).\n"
+        f"(define (domain {name}-tasks)\n"
+        + (f"  {reqs}\n" if reqs else "")
+        + f"  (:action {TASK}\n    :parameters ()\n    :precondition {goal}\n    :effect (and)))\n"
+    )
+    toml = (
+        f"# {domain.name} and {problem.name} wrapped as a one-task folder\n"
+        f"# (python -m planning.world.from_problem).\n\n"
+        f'[layouts.{layout}]\nproblem = "{problem_file}"\n\n'
+        f"[tasks.{TASK}]\nprobability = 1.0\n\n"
+        f"[stream]\ntasks_per_reset = 1\n"
+    )
     files = {"domain.pddl": domain_text, problem_file: problem_text, "tasks.pddl": tasks, "domain.toml": toml}
     seq = Path("sequences") / layout / "seq-00.json"
     if out.exists():
@@ -113,7 +118,7 @@ def wrap(domain: Path, problem: Path, out: Path, layout: str | None = None) -> P
         folder.mkdir()
         for fname, text in files.items():
             (folder / fname).write_text(text)
-        model = compile_domain(folder, layout)            # refuses what the front end refuses
+        model = compile_domain(folder, layout)  # refuses what the front end refuses
         record = generate(model, count=1, length=1)[0]
         out.mkdir(parents=True, exist_ok=True)
         for fname in files:
@@ -123,9 +128,12 @@ def wrap(domain: Path, problem: Path, out: Path, layout: str | None = None) -> P
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0], domain=False, out="folder",
-                   helps={"layout": "the layout's name (default: the problem file's name)",
-                          "out": "the domain folder to write"})
+    p = cli.parser(
+        __doc__.splitlines()[0],
+        domain=False,
+        out="folder",
+        helps={"layout": "the layout's name (default: the problem file's name)", "out": "the domain folder to write"},
+    )
     p.add_argument("domain", nargs="?", help="the PDDL domain file")
     p.add_argument("problem", nargs="?", help="the PDDL problem file")
     args = p.parse_args()

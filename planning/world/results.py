@@ -10,6 +10,7 @@ every saved sequence is checked against the canonical one (one well-formed row p
 figures that add up), and a sequence whose failed tasks were accounted for under another protocol
 is left to be played again. The play itself is `planning.world.runner`'s.
 """
+
 from __future__ import annotations
 
 import json
@@ -22,12 +23,16 @@ from planning.errors import DomainError
 from planning.world import sequences
 
 FAILURE_PROTOCOLS = {
-    "fallback": ("a failed task is completed by the fallback: the optimal completion from where it was "
-                 "left (planning.search.optimal) is executed, its consumption applied, and the task charged "
-                 "its executed cost plus the completion's"),
-    "abandon": ("the thesis's protocol: a failed task is abandoned, the world persists as it was left, and "
-                "the task is charged its executed cost only; not comparable with the myopic oracle unless "
-                "every task succeeded"),
+    "fallback": (
+        "a failed task is completed by the fallback: the optimal completion from where it was "
+        "left (planning.search.optimal) is executed, its consumption applied, and the task charged "
+        "its executed cost plus the completion's"
+    ),
+    "abandon": (
+        "the thesis's protocol: a failed task is abandoned, the world persists as it was left, and "
+        "the task is charged its executed cost only; not comparable with the myopic oracle unless "
+        "every task succeeded"
+    ),
 }
 """The failure protocols (`--failure-protocol`), as a results file describes them (`failure_accounting`)."""
 
@@ -39,7 +44,9 @@ COMPLETED_BY = {"fallback": "fallback", "abandon": "nothing"}
 def check_protocol(protocol: str) -> None:
     """A one-line error for a failure protocol that is not one of FAILURE_PROTOCOLS."""
     if protocol not in FAILURE_PROTOCOLS:
-        raise DomainError("--failure-protocol", f"unknown protocol '{protocol}' (known: {', '.join(FAILURE_PROTOCOLS)})")
+        raise DomainError(
+            "--failure-protocol", f"unknown protocol '{protocol}' (known: {', '.join(FAILURE_PROTOCOLS)})"
+        )
 
 
 def default_out(agent, model, results_dir="results", protocol: str = DEFAULT_PROTOCOL) -> str:
@@ -49,8 +56,9 @@ def default_out(agent, model, results_dir="results", protocol: str = DEFAULT_PRO
     return results_file(agent.run_name, model.name, model.layout, results_dir, protocol)
 
 
-def results_file(run_name: str, domain: str, layout: str, results_dir="results",
-                 protocol: str = DEFAULT_PROTOCOL) -> str:
+def results_file(
+    run_name: str, domain: str, layout: str, results_dir="results", protocol: str = DEFAULT_PROTOCOL
+) -> str:
     """`default_out` from the names alone (for tools that name a run's file without building its agent)."""
     base = run_name if layout in run_name else f"{run_name}-{layout}"
     if domain != "restaurant":
@@ -67,7 +75,9 @@ def read(path: Path, what: str) -> dict:
     except json.JSONDecodeError as e:
         raise DomainError(path, f"corrupt {what} ({e}); delete it to start over") from None
     except (OSError, UnicodeDecodeError) as e:
-        raise DomainError(path, f"cannot read the {what} ({getattr(e, 'strerror', None) or type(e).__name__})") from None
+        raise DomainError(
+            path, f"cannot read the {what} ({getattr(e, 'strerror', None) or type(e).__name__})"
+        ) from None
     if not isinstance(saved, dict):
         raise DomainError(path, f"corrupt {what} (not a JSON object); delete it to start over")
     return saved
@@ -91,9 +101,12 @@ def row_problem(row: dict, model) -> str | None:
             return f"its plan costs {spent} in {len(plan)} actions, the row says {executed} in {row['actions']}"
     if not row["success"]:
         executed, rest, charged = row.get("executed_cost"), row.get("completion_cost"), row.get("charged_cost")
-        if row.get("completed_by") == "fallback" and (not isinstance(executed, (int, float)) or
-                                                      not isinstance(rest, (int, float)) or
-                                                      charged != executed + rest or row["cost"] != charged):
+        if row.get("completed_by") == "fallback" and (
+            not isinstance(executed, (int, float))
+            or not isinstance(rest, (int, float))
+            or charged != executed + rest
+            or row["cost"] != charged
+        ):
             return "its charged cost is not its executed cost plus its completion"
     elif row.get("auto") and (row["cost"] != 0 or row["actions"] != 0):
         return "a task that already held, with a cost"
@@ -107,15 +120,20 @@ def kept_rows(path: Path, what: str, seq, rows, model=None) -> list:
     if not isinstance(rows, list):
         raise DomainError(path, f"corrupt {where} (its rows are not a list); delete it to start over")
     if len(rows) != len(seq.tasks):
-        raise DomainError(path, f"corrupt {where}: {len(rows)} rows for its {len(seq.tasks)} tasks "
-                                "(cut short or edited by hand); delete it to start over")
+        raise DomainError(
+            path,
+            f"corrupt {where}: {len(rows)} rows for its {len(seq.tasks)} tasks "
+            "(cut short or edited by hand); delete it to start over",
+        )
     for k, (row, task) in enumerate(zip(rows, seq.tasks)):
-        bad = not isinstance(row, dict) or any(not isinstance(row.get(key), kind) or
-                                               (kind is int and isinstance(row.get(key), bool))
-                                               for key, kind in ROW_KEYS.items())
+        bad = not isinstance(row, dict) or any(
+            not isinstance(row.get(key), kind) or (kind is int and isinstance(row.get(key), bool))
+            for key, kind in ROW_KEYS.items()
+        )
         if bad or row["sequence"] != seq.id or row["index"] != k or row["task"] != task.name:
-            raise DomainError(path, f"corrupt {where}: row {k} is not task {k} ({task.name}) of the "
-                                    "sequence; delete it to start over")
+            raise DomainError(
+                path, f"corrupt {where}: row {k} is not task {k} ({task.name}) of the sequence; delete it to start over"
+            )
         problem = row_problem(row, model) if model is not None else None
         if problem:
             raise DomainError(path, f"corrupt {where}: row {k} ({task.name}): {problem}; delete it to start over")
@@ -205,8 +223,9 @@ class Saved:
     files: int = 0
 
 
-def resume(model, agent, out, partial: Path | None, protocol: str = DEFAULT_PROTOCOL, force: bool = False,
-           played_by_workers=()) -> Saved:
+def resume(
+    model, agent, out, partial: Path | None, protocol: str = DEFAULT_PROTOCOL, force: bool = False, played_by_workers=()
+) -> Saved:
     """What the run of `agent` on `model` under `protocol` keeps of a finished OUT and of OUT.partial.json.
 
     A finished OUT made otherwise is an error naming the difference; with `force` OUT is not read, nor
@@ -222,8 +241,7 @@ def resume(model, agent, out, partial: Path | None, protocol: str = DEFAULT_PROT
         saved = read(Path(out), "results")
         diff = difference(saved, agent, model, protocol)
         if diff:
-            raise DomainError(out, f"a finished run with {diff}; pass --force to play it again, "
-                                   "or --out another file")
+            raise DomainError(out, f"a finished run with {diff}; pass --force to play it again, or --out another file")
         rows = saved.get("per_task")
         if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
             raise DomainError(out, "corrupt results (per_task is not a list of rows); delete it to start over")
@@ -238,10 +256,16 @@ def resume(model, agent, out, partial: Path | None, protocol: str = DEFAULT_PROT
     if partial and partial.is_file() and not (force and not played_by_workers):
         saved = read(partial, "partial results")
         if difference(saved, agent, model, protocol) is None:
-            runs.append((partial, "partial results",          # newer than OUT
-                         saved_sequences(partial, "partial results", saved.get("done"))))
-            kept.provenance.update({int(k): v for k, v in (saved.get("provenance_of") or {}).items()
-                                    if str(k).lstrip("-").isdigit()})
+            runs.append(
+                (
+                    partial,
+                    "partial results",  # newer than OUT
+                    saved_sequences(partial, "partial results", saved.get("done")),
+                )
+            )
+            kept.provenance.update(
+                {int(k): v for k, v in (saved.get("provenance_of") or {}).items() if str(k).lstrip("-").isdigit()}
+            )
             wall += saved.get("wall_seconds", 0.0)
     canonical = {}
     for path, what, table in runs:
@@ -250,8 +274,11 @@ def resume(model, agent, out, partial: Path | None, protocol: str = DEFAULT_PROT
                 try:
                     canonical[i] = sequences.load(model, [i])[0]
                 except DomainError:
-                    raise DomainError(path, f"corrupt {what}: sequence {i} is not a canonical sequence of "
-                                            f"{model.layout}; delete it to start over") from None
+                    raise DomainError(
+                        path,
+                        f"corrupt {what}: sequence {i} is not a canonical sequence of "
+                        f"{model.layout}; delete it to start over",
+                    ) from None
     for path, what, table in runs:
         for i, rows in table.items():
             rows = kept_rows(path, what, canonical[i], rows, model)
@@ -267,10 +294,19 @@ def resume(model, agent, out, partial: Path | None, protocol: str = DEFAULT_PROT
 def write_partial(partial: Path, agent, model, protocol: str, wall: float, done: dict, provenance: dict) -> None:
     """OUT.partial.json: the finished sequences' rows so far, under this run's agent, configuration, domain
     and protocol (what `resume` compares), with the seconds they took and the runs that played the kept ones."""
-    write_json(partial, {"agent": agent.name, **identity(model), "layout": model.layout,
-                         "config": agent.config, "failure_protocol": protocol,
-                         "wall_seconds": wall, "done": done,
-                         "provenance_of": {str(i): v for i, v in provenance.items()}})
+    write_json(
+        partial,
+        {
+            "agent": agent.name,
+            **identity(model),
+            "layout": model.layout,
+            "config": agent.config,
+            "failure_protocol": protocol,
+            "wall_seconds": wall,
+            "done": done,
+            "provenance_of": {str(i): v for i, v in provenance.items()},
+        },
+    )
 
 
 def write(out, partial: Path, result: dict) -> None:

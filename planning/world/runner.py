@@ -31,6 +31,7 @@ that differs stops with an error naming the difference unless `force` is given,
 which replays every sequence asked for). One process writes an OUT at a time
 (`planning.atomic.OutputLock`).
 """
+
 from __future__ import annotations
 
 import sys
@@ -114,8 +115,12 @@ def complete_failed(row: dict, world: PersistentWorld, task, protocol: str = DEF
         return row
     plan, rest = found
     world.complete(task, plan)
-    row.update(completion_cost=rest, charged_cost=executed + rest, cost=executed + rest,
-               completion_plan=[world.model.actions[a] for a in plan])
+    row.update(
+        completion_cost=rest,
+        charged_cost=executed + rest,
+        cost=executed + rest,
+        completion_plan=[world.model.actions[a] for a in plan],
+    )
     return row
 
 
@@ -127,13 +132,21 @@ def play_sequence(model, agent, seq, bar=None, protocol: str = DEFAULT_PROTOCOL)
     rows = []
     for i, task in enumerate(seq.tasks):
         start = time.perf_counter()
-        info = play_task(world, agent, task, seq.tasks[i + 1:])
+        info = play_task(world, agent, task, seq.tasks[i + 1 :])
         if "executed" in info:
             info["plan"] = [model.actions[a] for a in info.pop("executed")]
         o = world.outcomes[-1]
-        row = {"sequence": seq.id, "index": i, "task": o.task, "cost": o.cost,
-               "actions": o.actions, "success": o.success, "auto": o.auto,
-               "seconds": round(time.perf_counter() - start, 4), **info}
+        row = {
+            "sequence": seq.id,
+            "index": i,
+            "task": o.task,
+            "cost": o.cost,
+            "actions": o.actions,
+            "success": o.success,
+            "auto": o.auto,
+            "seconds": round(time.perf_counter() - start, 4),
+            **info,
+        }
         if not o.success:
             complete_failed(row, world, task, protocol)
         rows.append(row)
@@ -154,14 +167,28 @@ def fault_warning(rows) -> str | None:
         return None
     r = faults[0]
     msg = f" ({r['message'][:120]})" if r.get("message") else ""
-    how = ("abandoned where they were left, their executed cost charged" if r.get("completed_by") == "nothing"
-           else "each completed by the fallback and charged its executed cost plus the optimal completion")
-    return (f"{len(faults)} of {len(rows)} tasks ended in a planner timeout or crash, the first "
-            f"sequence {r['sequence']} task {r['index']} {r['task']}: {r['status']}{msg}; {how}")
+    how = (
+        "abandoned where they were left, their executed cost charged"
+        if r.get("completed_by") == "nothing"
+        else "each completed by the fallback and charged its executed cost plus the optimal completion"
+    )
+    return (
+        f"{len(faults)} of {len(rows)} tasks ended in a planner timeout or crash, the first "
+        f"sequence {r['sequence']} task {r['index']} {r['task']}: {r['status']}{msg}; {how}"
+    )
 
 
-def summary(agent_name, model, ids, rows, wall, config, reference=None, protocol: str = DEFAULT_PROTOCOL,
-            resets: dict | None = None) -> dict:
+def summary(
+    agent_name,
+    model,
+    ids,
+    rows,
+    wall,
+    config,
+    reference=None,
+    protocol: str = DEFAULT_PROTOCOL,
+    resets: dict | None = None,
+) -> dict:
     """The results JSON of SPEC.md; `reference`: the myopic oracle's results file for the improvement.
 
     Every cost figure sums the rows' `cost`: under `fallback` the charged cost of a failed task
@@ -177,35 +204,60 @@ def summary(agent_name, model, ids, rows, wall, config, reference=None, protocol
     uncharged = [r for r in rows if not r["success"] and r.get("charged_cost") is None]
     if uncharged:
         r = uncharged[0]
-        raise DomainError(f"sequence {r['sequence']} task {r['index']}",
-                          f"{r['task']} failed and cannot be completed from where it was left, so it has "
-                          "no charged cost")
+        raise DomainError(
+            f"sequence {r['sequence']} task {r['index']}",
+            f"{r['task']} failed and cannot be completed from where it was left, so it has no charged cost",
+        )
     cost = sum(r["cost"] for r in rows) / n
     per_seq = []
     for i in ids:
         mine = [r for r in rows if r["sequence"] == i]
-        per_seq.append({"id": i, "cost": sum(r["cost"] for r in mine), "tasks": len(mine),
-                        "successes": sum(r["success"] for r in mine),
-                        "actions": sum(r["actions"] for r in mine)})
+        per_seq.append(
+            {
+                "id": i,
+                "cost": sum(r["cost"] for r in mine),
+                "tasks": len(mine),
+                "successes": sum(r["success"] for r in mine),
+                "actions": sum(r["actions"] for r in mine),
+            }
+        )
         if resets and i in resets:
             per_seq[-1]["reset_seed"] = resets[i]
         if any(not r["success"] for r in mine):
             per_seq[-1]["executed_cost"] = sum(r.get("executed_cost", r["cost"]) for r in mine)
     success = sum(r["success"] for r in rows) / n
     if protocol == "abandon" and success < 1:
-        gain, note = None, ("not comparable: under the thesis's abandon protocol a failed task leaves the "
-                            f"world unfinished, and {n - sum(r['success'] for r in rows)} of {n} tasks failed")
+        gain, note = (
+            None,
+            (
+                "not comparable: under the thesis's abandon protocol a failed task leaves the "
+                f"world unfinished, and {n - sum(r['success'] for r in rows)} of {n} tasks failed"
+            ),
+        )
     else:
         gain, note = improvement(cost, model, ids, reference, rows, resets)
-    out = {"agent": agent_name, **identity(model), "layout": model.layout, "sequences": list(ids),
-           "tasks": n, "cost_per_task": round(cost, 2),
-           "actions_per_task": round(sum(r["actions"] for r in rows) / n, 3),
-           "success_rate": round(success, 4),
-           "improvement_vs_myopic": gain}
+    out = {
+        "agent": agent_name,
+        **identity(model),
+        "layout": model.layout,
+        "sequences": list(ids),
+        "tasks": n,
+        "cost_per_task": round(cost, 2),
+        "actions_per_task": round(sum(r["actions"] for r in rows) / n, 3),
+        "success_rate": round(success, 4),
+        "improvement_vs_myopic": gain,
+    }
     if note:
         out["improvement_note"] = note
-    out.update({"failure_protocol": protocol, "per_sequence": per_seq, "per_task": rows,
-                "wall_seconds": round(wall, 1), "config": config})
+    out.update(
+        {
+            "failure_protocol": protocol,
+            "per_sequence": per_seq,
+            "per_task": rows,
+            "wall_seconds": round(wall, 1),
+            "config": config,
+        }
+    )
     failed = [r for r in rows if not r["success"]]
     if failed:
         out["failure_accounting"] = FAILURE_PROTOCOLS[protocol]
@@ -242,8 +294,10 @@ def improvement(cost: float, model, ids, reference=None, rows=None, resets=None)
             for i in ids:
                 mine = [r["task"] for r in rows if r["sequence"] == i]
                 if theirs.get(i) != mine:
-                    k = next((k for k, (a, b) in enumerate(zip(theirs.get(i, []), mine)) if a != b),
-                             min(len(theirs.get(i, [])), len(mine)))
+                    k = next(
+                        (k for k, (a, b) in enumerate(zip(theirs.get(i, []), mine)) if a != b),
+                        min(len(theirs.get(i, [])), len(mine)),
+                    )
                     return None, f"the reference {path} played other tasks in sequence {i} (from task {k} on)"
                 if resets and i in resets and seqs[i].get("reset_seed") not in (None, resets[i]):
                     return None, f"the reference {path} played sequence {i} from another world reset"
@@ -273,8 +327,18 @@ class Evaluation(dict):
     seconds: float
 
 
-def evaluate(model, agent, ids, out=None, progress=True, reference=None, force=False, strict=False,
-             protocol: str = DEFAULT_PROTOCOL, played_by_workers=()) -> Evaluation:
+def evaluate(
+    model,
+    agent,
+    ids,
+    out=None,
+    progress=True,
+    reference=None,
+    force=False,
+    strict=False,
+    protocol: str = DEFAULT_PROTOCOL,
+    played_by_workers=(),
+) -> Evaluation:
     """Play the sequences (resuming from OUT.partial.json), then write and return the results.
 
     Sequences already in a finished OUT of the same agent, configuration, failure protocol and
@@ -299,12 +363,14 @@ def evaluate(model, agent, ids, out=None, progress=True, reference=None, force=F
         check_writable(out)
         check_writable(partial)
     with OutputLock(out, "results file") if out else nullcontext():
-        return _evaluate(model, agent, ids, out, partial, progress, reference, force, strict, protocol,
-                         played_by_workers)
+        return _evaluate(
+            model, agent, ids, out, partial, progress, reference, force, strict, protocol, played_by_workers
+        )
 
 
-def _evaluate(model, agent, ids, out, partial, progress, reference, force, strict, protocol,
-              played_by_workers) -> Evaluation:
+def _evaluate(
+    model, agent, ids, out, partial, progress, reference, force, strict, protocol, played_by_workers
+) -> Evaluation:
     kept = results.resume(model, agent, out, partial, protocol, force, played_by_workers)
     done, wall, kept_prov = kept.done, kept.wall, kept.provenance
     seqs = sequences.load(model, ids)
@@ -312,10 +378,14 @@ def _evaluate(model, agent, ids, out, partial, progress, reference, force, stric
     played = sorted({s.id for s in todo} | ({int(i) for i in played_by_workers} & set(done)))
     seconds = 0.0
     if kept.finished is not None and not todo and kept.files == 1:
-        result, wrote = Evaluation(kept.finished), False   # nothing to play or merge: OUT stays as written
+        result, wrote = Evaluation(kept.finished), False  # nothing to play or merge: OUT stays as written
     else:
-        bar = tqdm(total=sum(len(s.tasks) for s in todo), desc=f"{agent.name} {model.layout}",
-                   unit="task", disable=not progress)
+        bar = tqdm(
+            total=sum(len(s.tasks) for s in todo),
+            desc=f"{agent.name} {model.layout}",
+            unit="task",
+            disable=not progress,
+        )
         for seq in todo:
             start = time.perf_counter()
             done[seq.id] = play_sequence(model, agent, seq, bar, protocol)
@@ -326,9 +396,20 @@ def _evaluate(model, agent, ids, out, partial, progress, reference, force, stric
         bar.close()
         seqs = sequences.load(model, sorted(set(ids) | set(done)))
         rows = [r for s in seqs for r in done[s.id]]
-        result = Evaluation(summary(agent.name, model, [s.id for s in seqs], rows, wall, agent.config,
-                                    reference, protocol, {s.id: s.reset_seed for s in seqs}))
-        result.update(agent.summary(rows))     # an agent's own keys (e.g. the clairvoyant's K)
+        result = Evaluation(
+            summary(
+                agent.name,
+                model,
+                [s.id for s in seqs],
+                rows,
+                wall,
+                agent.config,
+                reference,
+                protocol,
+                {s.id: s.reset_seed for s in seqs},
+            )
+        )
+        result.update(agent.summary(rows))  # an agent's own keys (e.g. the clairvoyant's K)
         _self_reference(result, out, reference)
         result["provenance"] = results_provenance(agent.config, played, kept_prov)
         wrote = bool(out)
@@ -359,8 +440,7 @@ def _asked(result: dict, model, agent, ids, reference, protocol, out) -> dict:
     wanted = set(ids)
     rows = [r for r in result["per_task"] if r["sequence"] in wanted]
     resets = {s["id"]: s["reset_seed"] for s in result["per_sequence"] if "reset_seed" in s}
-    asked = summary(agent.name, model, list(ids), rows, 0.0, result.get("config"), reference, protocol,
-                    resets or None)
+    asked = summary(agent.name, model, list(ids), rows, 0.0, result.get("config"), reference, protocol, resets or None)
     asked.pop("wall_seconds")
     _self_reference(asked, out, reference)
     return asked

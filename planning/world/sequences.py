@@ -7,6 +7,7 @@ under domains/<name>/sequences/<layout>/seq-NN.json:
 
     python -m planning.world.sequences --domain domains/restaurant --layout two-room
 """
+
 from __future__ import annotations
 
 import json
@@ -21,14 +22,14 @@ from planning.world.task_stream import draw_tasks
 
 TASK_SEED, RESET_SEED = 1000, 2000
 COUNT, LENGTH = 10, 50
-DEVELOPMENT = (1, 3, 6)          # the split used to choose beta; the other seven are held out
+DEVELOPMENT = (1, 3, 6)  # the split used to choose beta; the other seven are held out
 
 
 @dataclass
 class Sequence:
     id: int
     reset_seed: int
-    tasks: list                  # Task objects of the model
+    tasks: list  # Task objects of the model
 
 
 def sequence_dir(model) -> Path:
@@ -37,10 +38,16 @@ def sequence_dir(model) -> Path:
 
 def generate(model, count: int = COUNT, length: int = LENGTH) -> list[dict]:
     """The canonical sequences of a layout, as the JSON records stored on disk."""
-    return [{"id": i, "task_seed": TASK_SEED + i, "reset_seed": RESET_SEED + i,
-             "split": "development" if i in DEVELOPMENT else "held-out",
-             "tasks": [t.name for t in draw_tasks(model, TASK_SEED + i, length)]}
-            for i in range(count)]
+    return [
+        {
+            "id": i,
+            "task_seed": TASK_SEED + i,
+            "reset_seed": RESET_SEED + i,
+            "split": "development" if i in DEVELOPMENT else "held-out",
+            "tasks": [t.name for t in draw_tasks(model, TASK_SEED + i, length)],
+        }
+        for i in range(count)
+    ]
 
 
 def load(model, ids=None) -> list[Sequence]:

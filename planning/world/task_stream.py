@@ -6,6 +6,7 @@ a task not completed within `max_actions` primitive actions is abandoned (its
 actions' cost is still charged) and the next starts wherever the world is. The
 world is re-sampled from a reset seed every `tasks_per_reset` tasks.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -23,7 +24,7 @@ class Outcome:
     cost: int
     actions: int
     success: bool
-    auto: bool = False          # already satisfied when drawn
+    auto: bool = False  # already satisfied when drawn
 
 
 @dataclass
@@ -31,8 +32,8 @@ class Step:
     """The result of one primitive action."""
 
     cost: int
-    completed: bool             # the action reached the goal (consumption applied)
-    abandoned: bool             # the action used up the budget without reaching it
+    completed: bool  # the action reached the goal (consumption applied)
+    abandoned: bool  # the action used up the budget without reaching it
 
 
 class PersistentWorld:

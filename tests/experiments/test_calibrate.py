@@ -1,4 +1,5 @@
 """Reward calibration (thesis §5.2.4): D of a plan, R_goal = (1 + m) D_max, where the trainer finds R_goal."""
+
 import json
 import subprocess
 import sys
@@ -12,13 +13,13 @@ from planning.errors import DomainError
 
 
 def test_d_of_a_hand_made_plan():
-    costs = [100, 225, 1000, 50, 100]                 # PDDL units; c_RL = c_PDDL / 100
+    costs = [100, 225, 1000, 50, 100]  # PDDL units; c_RL = c_PDDL / 100
     g = 0.95
     by_hand = 1 / g**4 + 2.25 / g**3 + 10 / g**2 + 0.5 / g + 1
     d = discounted_requirement(costs, g, cost_scale=100)
     assert d == pytest.approx(by_hand)
     assert d == pytest.approx(16.458675, abs=1e-6)
-    assert discounted_requirement([300], g, 100) == 3.0          # a one-step plan is not discounted
+    assert discounted_requirement([300], g, 100) == 3.0  # a one-step plan is not discounted
     assert discounted_requirement(costs, 1.0, 100) == pytest.approx(14.75)
     assert discounted_requirement([], g) == 0.0
 
@@ -31,10 +32,12 @@ def record(model, i, task, names, success=True, auto=False):
 def test_r_goal_is_1_2_d_max_of_completed_plans(two_room):
     cheap = ["pick(cup_0, countertop)"]
     dear = ["pick(cup_0, countertop)", "move(countertop, coffeemachine)", "place(cup_0, coffeemachine)"]
-    records = [record(two_room, 0, "wash(bowls)", cheap),
-               record(two_room, 1, "make-coffee(servingtable)", dear),
-               record(two_room, 2, "wash(knives)", [], auto=True),
-               record(two_room, 3, "clear(servingtable)", dear * 3, success=False)]   # failed: no completion
+    records = [
+        record(two_room, 0, "wash(bowls)", cheap),
+        record(two_room, 1, "make-coffee(servingtable)", dear),
+        record(two_room, 2, "wash(knives)", [], auto=True),
+        record(two_room, 3, "clear(servingtable)", dear * 3, success=False),
+    ]  # failed: no completion
     r = calibrate(two_room, records, gamma=0.95, margin=0.2)
     costs = [two_room.action_cost[two_room.action(n)] for n in dear]
     d_max = discounted_requirement(costs, 0.95, 100)
@@ -47,7 +50,7 @@ def test_r_goal_is_1_2_d_max_of_completed_plans(two_room):
 
 
 def test_goal_reward_lookup_order(minimal, two_room, tmp_path):
-    assert goal_reward(minimal, tmp_path) == 10.0                 # the domain sets it: no file needed
+    assert goal_reward(minimal, tmp_path) == 10.0  # the domain sets it: no file needed
     with pytest.raises(DomainError, match="python -m experiments.calibrate --domain .* --layout two-room"):
         goal_reward(two_room, tmp_path)
     path = calibration_path(two_room, tmp_path)
@@ -63,8 +66,19 @@ def test_goal_reward_lookup_order(minimal, two_room, tmp_path):
 
 def test_command_on_a_short_rollout(tmp_path):
     out = tmp_path / "cal.json"
-    cmd = [sys.executable, "-m", "experiments.calibrate", "--layout", "two-room", "--tasks", "4",
-           "--cache-dir", str(tmp_path), "--out", str(out)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "experiments.calibrate",
+        "--layout",
+        "two-room",
+        "--tasks",
+        "4",
+        "--cache-dir",
+        str(tmp_path),
+        "--out",
+        str(out),
+    ]
     r = subprocess.run(cmd, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert "thesis: 81.07" in r.stdout and "satisficing" in r.stdout

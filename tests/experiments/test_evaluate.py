@@ -1,4 +1,5 @@
 """The evaluation runner's accounting under the persistent-world rules, and the results JSON."""
+
 import json
 from pathlib import Path
 
@@ -46,6 +47,7 @@ def seq(model, names, reset_seed=5):
 def optimal_cost(model, state, name) -> int:
     from planning.domain.batched import BatchedModel
     from planning.search.optimal import optimal_plan
+
     return optimal_plan(BatchedModel(model), state, model.tasks.get(name)).cost
 
 
@@ -53,15 +55,20 @@ def test_abandonment_and_auto_completion(two_room):
     """An abandoned task is charged what it executed plus the optimal completion from where it was left."""
     s = seq(two_room, ["serve-water(servingtable)", "pick-place(plate_0, servingtable)"])
     rows = play_sequence(two_room, Oscillate(), s)
-    left = two_room.reset_state(5)              # 64 moves between countertop and shelf: back where it began
+    left = two_room.reset_state(5)  # 64 moves between countertop and shelf: back where it began
     for _ in range(64):
         left = two_room.apply(left, Oscillate.act(type("O", (), {"model": two_room})(), left, None))
     rest = optimal_cost(two_room, left, "serve-water(servingtable)")
-    assert [(r["success"], r["actions"], r["cost"], r["auto"]) for r in rows] == \
-        [(False, 64, 64 * 25 + rest, False), (True, 0, 0, True)]
-    assert (rows[0]["executed_cost"], rows[0]["completion_cost"], rows[0]["charged_cost"]) == \
-        (64 * 25, rest, 64 * 25 + rest)
-    assert "executed_cost" not in rows[1]       # a completed task's row is as it always was
+    assert [(r["success"], r["actions"], r["cost"], r["auto"]) for r in rows] == [
+        (False, 64, 64 * 25 + rest, False),
+        (True, 0, 0, True),
+    ]
+    assert (rows[0]["executed_cost"], rows[0]["completion_cost"], rows[0]["charged_cost"]) == (
+        64 * 25,
+        rest,
+        64 * 25 + rest,
+    )
+    assert "executed_cost" not in rows[1]  # a completed task's row is as it always was
 
 
 def test_planner_failure_and_short_plan_fail_the_task(two_room):
@@ -80,13 +87,17 @@ def test_planner_failure_and_short_plan_fail_the_task(two_room):
         after_water = m.apply(after_water, a)
     after_water = water.consume(after_water)
     first = next(a for a in m.applicable(after_water))
-    agent = Scripted({"serve-water(servingtable)": Reply(None, {"status": "out-of-time"}),
-                      "make-coffee(servingtable)": Reply([first])})
+    agent = Scripted(
+        {
+            "serve-water(servingtable)": Reply(None, {"status": "out-of-time"}),
+            "make-coffee(servingtable)": Reply([first]),
+        }
+    )
     rows = play_sequence(m, agent, s, bar=None)
     coffee = optimal_cost(m, m.apply(after_water, first), "make-coffee(servingtable)")
     step = m.action_cost[first]
     assert [(r["success"], r["executed_cost"], r["actions"]) for r in rows] == [(False, 0, 0), (False, step, 1)]
-    assert [r["cost"] for r in rows] == [completion.cost, step + coffee]        # a failure never costs nothing
+    assert [r["cost"] for r in rows] == [completion.cost, step + coffee]  # a failure never costs nothing
     assert rows[0]["status"] == "out-of-time" and rows[0]["completed_by"] == "fallback"
     assert rows[0]["completion_plan"] == [m.actions[a] for a in completion.plan]
 
@@ -95,13 +106,19 @@ def test_the_thesis_protocol_abandons_where_the_task_stopped(two_room):
     """--failure-protocol abandon: the executed cost only, and the world stays as the failed task left it."""
     m = two_room
     s = seq(m, ["serve-water(servingtable)", "make-coffee(servingtable)"])
-    agent = Scripted({"serve-water(servingtable)": Reply(None, {"status": "out-of-time"}),
-                      "make-coffee(servingtable)": Reply([m.action("pick(cup_0, countertop)")])})
+    agent = Scripted(
+        {
+            "serve-water(servingtable)": Reply(None, {"status": "out-of-time"}),
+            "make-coffee(servingtable)": Reply([m.action("pick(cup_0, countertop)")]),
+        }
+    )
     rows = play_sequence(m, agent, s, bar=None, protocol="abandon")
     start = m.reset_state(5)
     coffee = optimal_cost(m, m.apply(start, m.action("pick(cup_0, countertop)")), "make-coffee(servingtable)")
-    assert [(r["cost"], r["completed_by"], r["completion_cost"]) for r in rows] == [(0, "nothing", None),
-                                                                                   (100, "nothing", None)]
+    assert [(r["cost"], r["completed_by"], r["completion_cost"]) for r in rows] == [
+        (0, "nothing", None),
+        (100, "nothing", None),
+    ]
     assert coffee > 0
 
 
@@ -119,8 +136,9 @@ def test_an_agent_that_never_acts_costs_exactly_the_myopic_oracle(two_room, tmp_
     assert oracle["improvement_vs_myopic"] == 0.0 and idle["improvement_vs_myopic"] == 0.0
     assert idle["success_rate"] < 1 and idle["executed_cost_per_task"] == 0.0
     # under the thesis's protocol the same agent executes nothing and claims nothing
-    abandon = evaluate(two_room, GivesUp(), [0, 1], tmp_path / "abandon.json", progress=False, reference=ref,
-                       protocol="abandon")
+    abandon = evaluate(
+        two_room, GivesUp(), [0, 1], tmp_path / "abandon.json", progress=False, reference=ref, protocol="abandon"
+    )
     assert abandon["cost_per_task"] == 0.0 and abandon["improvement_vs_myopic"] is None
     assert "not comparable" in abandon["improvement_note"]
 
@@ -152,28 +170,51 @@ def _oscillations(model, state, n):
 
 
 def test_results_json_and_resume(two_room, tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)   # no results/ here: improvement_vs_myopic is None
+    monkeypatch.chdir(tmp_path)  # no results/ here: improvement_vs_myopic is None
     out = tmp_path / "r.json"
     import planning.world.sequences as ev
 
     real_load = ev.load
-    monkeypatch.setattr(ev, "load", lambda model, ids: [Sequence(i, 100 + i, s.tasks[:6])
-                                                        for i, s in zip(ids, real_load(model, ids))])
+    monkeypatch.setattr(
+        ev, "load", lambda model, ids: [Sequence(i, 100 + i, s.tasks[:6]) for i, s in zip(ids, real_load(model, ids))]
+    )
     agent = RandomPolicy(seed=1)
     first = evaluate(two_room, agent, [0, 1], out, progress=False)
     data = json.loads(out.read_text())
     assert data == first
-    assert set(data) >= {"agent", "domain", "layout", "sequences", "tasks", "cost_per_task",
-                         "actions_per_task", "success_rate", "improvement_vs_myopic", "per_sequence",
-                         "per_task", "wall_seconds", "config"}
+    assert set(data) >= {
+        "agent",
+        "domain",
+        "layout",
+        "sequences",
+        "tasks",
+        "cost_per_task",
+        "actions_per_task",
+        "success_rate",
+        "improvement_vs_myopic",
+        "per_sequence",
+        "per_task",
+        "wall_seconds",
+        "config",
+    }
     assert data["tasks"] == 12 and data["improvement_vs_myopic"] is None
     assert data["cost_per_task"] == pytest.approx(sum(r["cost"] for r in data["per_task"]) / 12, abs=0.01)
     assert [s["tasks"] for s in data["per_sequence"]] == [6, 6]
     # A partial file from an interrupted run: sequence 0 is kept, only 1 is played again.
     partial = tmp_path / "r.json.partial.json"
-    kept = [dict(r, seconds=7.0) for r in data["per_task"] if r["sequence"] == 0]   # marks the kept rows
-    partial.write_text(json.dumps({"agent": agent.name, "layout": "two-room", "config": agent.config,
-                                   "failure_protocol": "fallback", "wall_seconds": 1.0, "done": {"0": kept}}))
+    kept = [dict(r, seconds=7.0) for r in data["per_task"] if r["sequence"] == 0]  # marks the kept rows
+    partial.write_text(
+        json.dumps(
+            {
+                "agent": agent.name,
+                "layout": "two-room",
+                "config": agent.config,
+                "failure_protocol": "fallback",
+                "wall_seconds": 1.0,
+                "done": {"0": kept},
+            }
+        )
+    )
     resumed = evaluate(two_room, RandomPolicy(seed=1), [0, 1], out, progress=False)
     assert [r["seconds"] for r in resumed["per_task"][:6]] == [7.0] * 6 and not partial.exists()
 
@@ -184,12 +225,13 @@ def test_a_finished_run_is_extended_not_replayed(two_room, tmp_path, monkeypatch
     import planning.world.sequences as ev
 
     real_load = ev.load
-    monkeypatch.setattr(ev, "load", lambda model, ids: [Sequence(i, 100 + i, s.tasks[:4])
-                                                        for i, s in zip(ids, real_load(model, ids))])
+    monkeypatch.setattr(
+        ev, "load", lambda model, ids: [Sequence(i, 100 + i, s.tasks[:4]) for i, s in zip(ids, real_load(model, ids))]
+    )
     evaluate(two_room, RandomPolicy(seed=1), [0], out, progress=False)
     data = json.loads(out.read_text())
     for r in data["per_task"]:
-        r["seconds"] = 7.0                      # marks the rows of the finished run
+        r["seconds"] = 7.0  # marks the rows of the finished run
     out.write_text(json.dumps(data))
     both = evaluate(two_room, RandomPolicy(seed=1), [0, 1], out, progress=False)
     assert both["sequences"] == [0, 1] and both["tasks"] == 8
@@ -242,8 +284,9 @@ def short_sequences(monkeypatch, n):
     import planning.world.sequences as ev
 
     real_load = ev.load
-    monkeypatch.setattr(ev, "load", lambda model, ids: [Sequence(i, 100 + i, s.tasks[:n])
-                                                        for i, s in zip(ids, real_load(model, ids))])
+    monkeypatch.setattr(
+        ev, "load", lambda model, ids: [Sequence(i, 100 + i, s.tasks[:n]) for i, s in zip(ids, real_load(model, ids))]
+    )
 
 
 def test_failures_are_charged_and_a_planner_fault_warns(two_room, tmp_path, monkeypatch, capsys):
@@ -253,8 +296,9 @@ def test_failures_are_charged_and_a_planner_fault_warns(two_room, tmp_path, monk
     out = tmp_path / "r.json"
     r = evaluate(two_room, GivesUp(), [0], out, progress=False)
     failed = [x for x in r["per_task"] if not x["success"]]
-    assert failed and all(x["executed_cost"] == 0 and x["cost"] == x["charged_cost"] == x["completion_cost"] > 0
-                          for x in failed)
+    assert failed and all(
+        x["executed_cost"] == 0 and x["cost"] == x["charged_cost"] == x["completion_cost"] > 0 for x in failed
+    )
     assert r["cost_per_task"] > 0
     assert r["cost_per_task"] == pytest.approx(sum(x["cost"] for x in r["per_task"]) / 5, abs=0.01)
     assert r["executed_cost_per_task"] == 0.0 and r["planner_faults"] == len(failed)
@@ -287,7 +331,7 @@ def test_rows_written_under_another_failure_protocol_are_refused_then_played_aga
     r = evaluate(two_room, GivesUp(), [0, 1], out, progress=False)
     data = json.loads(out.read_text())
     del data["failure_protocol"]
-    for x in data["per_task"]:                  # as the old runner wrote them: charged, the world left as it was
+    for x in data["per_task"]:  # as the old runner wrote them: charged, the world left as it was
         x.pop("completed_by", None)
         x.pop("completion_plan", None)
     out.write_text(json.dumps(data))
@@ -305,8 +349,17 @@ def test_a_sequence_cut_short_in_a_saved_file_is_refused(two_room, tmp_path, mon
     evaluate(two_room, GivesUp(), [0], out, progress=False)
     data = json.loads(out.read_text())
     partial = tmp_path / "r.json.partial.json"
-    partial.write_text(json.dumps({"agent": "gives-up", "layout": "two-room", "config": {},
-                                   "failure_protocol": "fallback", "done": {"0": data["per_task"][:3]}}))
+    partial.write_text(
+        json.dumps(
+            {
+                "agent": "gives-up",
+                "layout": "two-room",
+                "config": {},
+                "failure_protocol": "fallback",
+                "done": {"0": data["per_task"][:3]},
+            }
+        )
+    )
     before = out.read_text()
     with pytest.raises(DomainError, match=r"partial results, sequence 0: 3 rows for its 5 tasks"):
         evaluate(two_room, GivesUp(), [0], out, progress=False)
@@ -328,10 +381,10 @@ def run_killed_and_resumed(cmd, watch, kills=2, cwd=None):
         while p.poll() is None:
             stamp = watch.stat().st_mtime_ns if watch.exists() else None
             if stamp is not None and stamp != seen:
-                seen = stamp                         # a piece of work was saved; the next has begun
+                seen = stamp  # a piece of work was saved; the next has begun
                 os.kill(p.pid, signal.SIGKILL)
                 break
-            time.sleep(0.005)                        # well within the ~25 ms a short sequence takes
+            time.sleep(0.005)  # well within the ~25 ms a short sequence takes
         assert p.wait() == -signal.SIGKILL, "the run ended before it could be killed"
     return subprocess.run([sys.executable, *cmd], cwd=cwd, capture_output=True).returncode
 
@@ -348,15 +401,32 @@ def test_no_progress_leaves_the_log_without_bars(tmp_path):
     for path in (domain / "sequences" / "two-room").glob("seq-*.json"):
         rec = json.loads(path.read_text())
         path.write_text(json.dumps({**rec, "tasks": rec["tasks"][:3]}))
-    cmd = lambda out, *extra: [sys.executable, "-m", "experiments.evaluate", "--agent", "myopic-oracle", "--planner",
-                               "internal", "--domain", str(domain), "--layout", "two-room", "--sequences", "0",
-                               "--out", str(tmp_path / out), *extra]
+    cmd = lambda out, *extra: [
+        sys.executable,
+        "-m",
+        "experiments.evaluate",
+        "--agent",
+        "myopic-oracle",
+        "--planner",
+        "internal",
+        "--domain",
+        str(domain),
+        "--layout",
+        "two-room",
+        "--sequences",
+        "0",
+        "--out",
+        str(tmp_path / out),
+        *extra,
+    ]
     quiet = subprocess.run(cmd("quiet.json", "--no-progress"), capture_output=True, text=True)
     loud = subprocess.run(cmd("loud.json"), capture_output=True, text=True)
     assert quiet.returncode == loud.returncode == 0
     assert "task/s" not in quiet.stderr and "task/s" in loud.stderr
-    assert json.loads((tmp_path / "quiet.json").read_text())["cost_per_task"] == \
-        json.loads((tmp_path / "loud.json").read_text())["cost_per_task"]
+    assert (
+        json.loads((tmp_path / "quiet.json").read_text())["cost_per_task"]
+        == json.loads((tmp_path / "loud.json").read_text())["cost_per_task"]
+    )
 
 
 def test_a_run_killed_and_rerun_gives_the_uninterrupted_results(tmp_path):
@@ -368,17 +438,34 @@ def test_a_run_killed_and_rerun_gives_the_uninterrupted_results(tmp_path):
 
     domain = tmp_path / "restaurant"
     shutil.copytree("domains/restaurant", domain)
-    for path in (domain / "sequences" / "two-room").glob("seq-*.json"):     # short sequences: a quick test
+    for path in (domain / "sequences" / "two-room").glob("seq-*.json"):  # short sequences: a quick test
         rec = json.loads(path.read_text())
         path.write_text(json.dumps({**rec, "tasks": rec["tasks"][:6]}))
-    cmd = lambda out: ["-m", "experiments.evaluate", "--agent", "myopic-oracle", "--planner", "internal",
-                       "--domain", str(domain), "--layout", "two-room", "--sequences", "0-9", "--out", str(out)]
+    cmd = lambda out: [
+        "-m",
+        "experiments.evaluate",
+        "--agent",
+        "myopic-oracle",
+        "--planner",
+        "internal",
+        "--domain",
+        str(domain),
+        "--layout",
+        "two-room",
+        "--sequences",
+        "0-9",
+        "--out",
+        str(out),
+    ]
     whole, resumed = tmp_path / "whole.json", tmp_path / "resumed.json"
     assert subprocess.run([sys.executable, *cmd(whole)], capture_output=True).returncode == 0
     assert run_killed_and_resumed(cmd(resumed), Path(f"{resumed}.partial.json")) == 0
-    timing = ("seconds", "wall_seconds", "provenance")      # provenance names the command and the date
-    strip = lambda r: {k: ([{k2: v2 for k2, v2 in x.items() if k2 not in timing} for x in v] if k == "per_task" else v)
-                       for k, v in r.items() if k not in timing}
+    timing = ("seconds", "wall_seconds", "provenance")  # provenance names the command and the date
+    strip = lambda r: {
+        k: ([{k2: v2 for k2, v2 in x.items() if k2 not in timing} for x in v] if k == "per_task" else v)
+        for k, v in r.items()
+        if k not in timing
+    }
     assert strip(json.loads(resumed.read_text())) == strip(json.loads(whole.read_text()))
     assert not Path(f"{resumed}.partial.json").exists()
 
@@ -390,8 +477,13 @@ def test_a_fast_downward_crash_is_a_warning_line_not_only_json(two_room, tmp_pat
 
     monkeypatch.chdir(tmp_path)
     short_sequences(monkeypatch, 3)
-    monkeypatch.setattr(myopic.fd, "solve", lambda model, state, task, time_limit: PlanResult(
-        Status.CRASHED, message="INTERNAL_ERROR planner exited with -11 (SIGSEGV)"))
+    monkeypatch.setattr(
+        myopic.fd,
+        "solve",
+        lambda model, state, task, time_limit: PlanResult(
+            Status.CRASHED, message="INTERNAL_ERROR planner exited with -11 (SIGSEGV)"
+        ),
+    )
     r = evaluate(two_room, myopic.MyopicOracle(), [0], tmp_path / "r.json", progress=False)
     crashed = [x for x in r["per_task"] if x.get("status") == "crashed"]
     assert crashed and crashed[0]["message"].endswith("(SIGSEGV)") and crashed[0]["cost"] > 0

@@ -1,5 +1,6 @@
 """A new agent is one module and one registry row: a throwaway planner, registered by a monkeypatched row,
 is listed, built from its own flag, played by the evaluation command and named in its results file."""
+
 from __future__ import annotations
 
 import json
@@ -78,11 +79,24 @@ def test_a_new_agent_is_one_module_and_one_row(detour, tiny, tmp_path, capsys):
     for name, extra in (("myopic-oracle", ["--planner", "internal"]), ("detour", []), ("detour-2", ["--detour", "2"])):
         agent = "myopic-oracle" if name == "myopic-oracle" else "detour"
         path = tmp_path / f"{name}.json"
-        sys.argv = ["evaluate", "--agent", agent, "--domain", str(tiny), "--layout", "grid", *extra,
-                    "--sequences", "0-1", "--out", str(path), "--no-progress"]
+        sys.argv = [
+            "evaluate",
+            "--agent",
+            agent,
+            "--domain",
+            str(tiny),
+            "--layout",
+            "grid",
+            *extra,
+            "--sequences",
+            "0-1",
+            "--out",
+            str(path),
+            "--no-progress",
+        ]
         main()
         out[name] = json.loads(path.read_text())
     costs = {k: [r["cost"] for r in d["per_task"]] for k, d in out.items()}
-    assert costs["detour"] == costs["myopic-oracle"]            # the optimal plan, as the oracle's
-    assert sum(costs["detour-2"]) > sum(costs["detour"])        # a detour first costs more
+    assert costs["detour"] == costs["myopic-oracle"]  # the optimal plan, as the oracle's
+    assert sum(costs["detour-2"]) > sum(costs["detour"])  # a detour first costs more
     assert out["detour-2"]["agent"] == "detour" and out["detour-2"]["config"] == {"detour": 2}

@@ -1,4 +1,5 @@
 """Every registered agent builds from its own command-line options and plays a short sequence: a new row is covered here."""
+
 import argparse
 import dataclasses
 
@@ -21,8 +22,14 @@ def checkpoint(minimal, tmp_path_factory):
 
     enc = Encoding(minimal)
     path = tmp_path_factory.mktemp("ckpt") / "rl-anticipatory-grid-seed0.pt"
-    return str(save_checkpoint(path, network_payload(build_network(enc, 16), enc,
-                                                     {"step": 1, "config": {"gamma": 0.99, "horizon": "anticipatory"}})))
+    return str(
+        save_checkpoint(
+            path,
+            network_payload(
+                build_network(enc, 16), enc, {"step": 1, "config": {"gamma": 0.99, "horizon": "anticipatory"}}
+            ),
+        )
+    )
 
 
 @pytest.fixture(scope="module")
@@ -34,14 +41,21 @@ def gnn(minimal, tmp_path_factory):
     names = GraphEncoder(minimal).feature_names
     net = GNNCostModel(len(names), width=8)
     path = tmp_path_factory.mktemp("gnn") / "gnn-grid-seed0.pt"
-    return str(save_gnn_checkpoint(path, {"model": net.state_dict(), "dims": net.dims, "feature_names": names,
-                                          "layout": minimal.layout}))
+    return str(
+        save_gnn_checkpoint(
+            path, {"model": net.state_dict(), "dims": net.dims, "feature_names": names, "layout": minimal.layout}
+        )
+    )
 
 
-ARGS = {"rl-greedy": ["--checkpoint", "{ckpt}"], "rl-guided": ["--checkpoint", "{ckpt}", "--budget", "50"],
-        "clairvoyant": ["--K", "2", "--time-limit", "30"], "myopic-oracle": ["--planner", "internal"],
-        "gnn-native": ["--model", "{gnn}", "--candidates", "{tmp}/candidates.jsonl"],
-        "gnn-guided": ["--model", "{gnn}", "--budget", "50"]}
+ARGS = {
+    "rl-greedy": ["--checkpoint", "{ckpt}"],
+    "rl-guided": ["--checkpoint", "{ckpt}", "--budget", "50"],
+    "clairvoyant": ["--K", "2", "--time-limit", "30"],
+    "myopic-oracle": ["--planner", "internal"],
+    "gnn-native": ["--model", "{gnn}", "--candidates", "{tmp}/candidates.jsonl"],
+    "gnn-guided": ["--model", "{gnn}", "--budget", "50"],
+}
 
 
 @pytest.mark.parametrize("name", list(AGENTS))
@@ -58,7 +72,7 @@ def test_agent_builds_from_its_options_and_plays(minimal, checkpoint, gnn, name,
     rows = play_sequence(minimal, agent, seq)
     assert [r["task"] for r in rows] == [t.name for t in seq.tasks]
     assert all(r["cost"] >= 0 and r["actions"] <= 64 for r in rows)
-    if name != "random" and name != "rl-greedy":            # planners solve every task of the grid
+    if name != "random" and name != "rl-greedy":  # planners solve every task of the grid
         assert all(r["success"] for r in rows)
 
 
@@ -87,9 +101,16 @@ def test_every_agent_provides_the_protocol_the_runner_and_registry_call(minimal,
     assert all((getattr(Agent, h).__doc__ or "").strip() for h in HOOKS)
     assert cls.from_args.__func__ is not Agent.from_args.__func__
     assert cls.options.__func__ is not Agent.options.__func__
-    assert (cls.__doc__ or "").strip()                        # its --list-agents line
-    given = {"checkpoint": checkpoint, "model": gnn, "budget": 50, "candidates": str(tmp_path / "c.jsonl"),
-             "K": 2, "time_limit": 30.0, "planner": "internal"}
+    assert (cls.__doc__ or "").strip()  # its --list-agents line
+    given = {
+        "checkpoint": checkpoint,
+        "model": gnn,
+        "budget": 50,
+        "candidates": str(tmp_path / "c.jsonl"),
+        "K": 2,
+        "time_limit": 30.0,
+        "planner": "internal",
+    }
     declared = {f.name for f in dataclasses.fields(options_class(cls))}
     agent = cls.from_args(agent_options(cls, **{k: v for k, v in given.items() if k in declared}), minimal)
     assert isinstance(agent.name, str) and agent.name != Agent.name
@@ -101,8 +122,14 @@ def test_every_agent_provides_the_protocol_the_runner_and_registry_call(minimal,
 
 def test_agent_options_are_the_declared_flags_with_their_defaults():
     o = agent_options("rl-guided", checkpoint="x.pt", beta=1.5)
-    assert (o.checkpoint, o.beta, o.budget, o.depth_cap, o.reference, o.time_limit) == ("x.pt", 1.5, None, None,
-                                                                                         "internal", 60.0)
+    assert (o.checkpoint, o.beta, o.budget, o.depth_cap, o.reference, o.time_limit) == (
+        "x.pt",
+        1.5,
+        None,
+        None,
+        "internal",
+        60.0,
+    )
     assert agent_options("myopic-oracle") == agent_options("myopic-oracle", planner="fast-downward", time_limit=600.0)
     with pytest.raises(DomainError, match="--checkpoint"):
         agent_options("rl-greedy")

@@ -1,5 +1,6 @@
 """The reproduction report: its statistics against hand computations, which results files it uses and flags,
 running what is missing (tiny case), the figures, and the report from the committed results."""
+
 import itertools
 import json
 import math
@@ -22,8 +23,15 @@ ROOT = Path(__file__).resolve().parents[2]
 
 def results_set(per_seed: list[list[float]], tasks: int = 50) -> list[dict]:
     """Results JSONs (one per seed) whose sequence i costs per_seed[seed][i] per task."""
-    return [{"per_sequence": [{"id": i, "cost": c * tasks, "tasks": tasks, "successes": tasks, "actions": 7 * tasks}
-                              for i, c in enumerate(costs)]} for costs in per_seed]
+    return [
+        {
+            "per_sequence": [
+                {"id": i, "cost": c * tasks, "tasks": tasks, "successes": tasks, "actions": 7 * tasks}
+                for i, c in enumerate(costs)
+            ]
+        }
+        for costs in per_seed
+    ]
 
 
 # ---- statistics -----------------------------------------------------------------------------
@@ -37,7 +45,7 @@ def test_wilcoxon_matches_the_hand_enumeration():
     res = stats.wilcoxon_paired(stats.sequence_costs(a), stats.sequence_costs(results_set([b])))
     assert (res["n"], res["a_cheaper"], res["statistic"]) == (6, 5, 4.0)
     assert res["p"] == pytest.approx(14 / 64)
-    ranks = range(1, 7)              # the same p by enumerating all 2^6 sign assignments
+    ranks = range(1, 7)  # the same p by enumerating all 2^6 sign assignments
     w_plus = [sum(r for r, s in zip(ranks, signs) if s) for signs in itertools.product((0, 1), repeat=6)]
     assert res["p"] == pytest.approx(sum(min(w, 21 - w) <= 4 for w in w_plus) / 64)
 
@@ -60,7 +68,7 @@ def test_welch_matches_the_hand_computation():
     b = results_set([[20, 20], [21, 21]])
     res = stats.compare(a, b)["welch"]
     se = math.sqrt(4 / 3 + 0.5 / 2)
-    df = (4 / 3 + 0.25) ** 2 / ((4 / 3) ** 2 / 2 + 0.25 ** 2 / 1)
+    df = (4 / 3 + 0.25) ** 2 / ((4 / 3) ** 2 / 2 + 0.25**2 / 1)
     assert res["t"] == pytest.approx(8.5 / se) and res["t"] == pytest.approx(6.7551, abs=1e-4)
     assert res["df"] == pytest.approx(df) and df == pytest.approx(2.6350, abs=1e-4)
     assert res["reduction"] == pytest.approx(8.5 / 20.5)
@@ -91,8 +99,11 @@ def tiny(two_room, tmp_path, monkeypatch):
     import planning.world.sequences as sequences
 
     real_load = sequences.load
-    monkeypatch.setattr(sequences, "load", lambda model, ids: [Sequence(i, 100 + i, s.tasks[:3])
-                                                            for i, s in zip(ids, real_load(model, ids))])
+    monkeypatch.setattr(
+        sequences,
+        "load",
+        lambda model, ids: [Sequence(i, 100 + i, s.tasks[:3]) for i, s in zip(ids, real_load(model, ids))],
+    )
     monkeypatch.chdir(tmp_path)
     ctx = Context(str(ROOT / "domains" / "restaurant"))
     ctx._models["two-room"] = two_room
@@ -123,7 +134,7 @@ def test_a_row_flags_or_refuses_what_it_does_not_expect(tiny):
     data = json.loads(Path(run.out).read_text())
     failed = [r for r in data["per_task"] if not r["success"]]
     assert failed, "the random policy is expected to fail one of six tasks"
-    legacy = json.loads(json.dumps(data))          # a file from before the fallback was executed
+    legacy = json.loads(json.dumps(data))  # a file from before the fallback was executed
     for r in legacy["per_task"]:
         r.pop("completed_by", None)
         r.pop("completion_plan", None)
@@ -132,22 +143,32 @@ def test_a_row_flags_or_refuses_what_it_does_not_expect(tiny):
     Path(run.out).write_text(json.dumps(legacy))
     loaded = load_run(run, ctx)
     assert not loaded.used and "failure protocol 'charged" in loaded.note
-    assert not needs_run(loaded, [0, 1])           # made otherwise: replaced only by its command with --force
+    assert not needs_run(loaded, [0, 1])  # made otherwise: replaced only by its command with --force
     Path(run.out).write_text(json.dumps({**data, "config": {"seed": 2}}))
     other = load_run(run, ctx)
     assert other.status == "not used" and "seed 2" in other.note
     Path(f"{run.out}.partial.json").write_text("{}")
     assert load_run(run, ctx).status == "in progress"
     assert load_run(Run("no-such-agent", "two-room", (), "x.json"), ctx).status == "agent not registered"
-    assert load_run(Run("rl-greedy", "two-room", ("--checkpoint", "none.pt"), "x.json", 0, "none.pt"),
-                    ctx).status == "no checkpoint"
+    assert (
+        load_run(Run("rl-greedy", "two-room", ("--checkpoint", "none.pt"), "x.json", 0, "none.pt"), ctx).status
+        == "no checkpoint"
+    )
 
 
 # ---- figures --------------------------------------------------------------------------------
 def test_figures_draw_what_they_have_and_nothing_otherwise(tmp_path):
-    run = lambda scale: [{"step": s, "success_rate": s / 1000, "task_return": scale * s / 1000,
-                          "selected_q": 3.0 * scale * s / 1000, "td_target": 3.0 * scale * s / 1000,
-                          "action_share": {"refill-water": 0.01 * s / 1000}} for s in range(0, 1001, 100)]
+    run = lambda scale: [
+        {
+            "step": s,
+            "success_rate": s / 1000,
+            "task_return": scale * s / 1000,
+            "selected_q": 3.0 * scale * s / 1000,
+            "td_target": 3.0 * scale * s / 1000,
+            "action_share": {"refill-water": 0.01 * s / 1000},
+        }
+        for s in range(0, 1001, 100)
+    ]
     logs = {"two-room": {"myopic": {0: run(1), 4: run(2)}, "anticipatory": {0: run(3)}}}
     assert figs.training_curves(logs, tmp_path / "a1.png").stat().st_size > 1000
     assert figs.refill_share({"anticipatory": run(1)}, tmp_path / "a2.png").is_file()
@@ -161,19 +182,27 @@ def test_figures_draw_what_they_have_and_nothing_otherwise(tmp_path):
 def test_training_curves_count_every_run_and_put_a_diverged_q_on_a_log_axis(tmp_path, monkeypatch):
     """Figure A.1's legend counts the seeds drawn of every run behind the row (a run without a log here is
     counted, not drawn); a panel a diverged run takes past 1,000 is symlog, the others stay linear."""
-    run = lambda q: [{"step": s, "success_rate": 0.5, "task_return": 1.0, "selected_q": q * s / 1000,
-                      "td_target": q * s / 1000} for s in range(0, 1001, 100)]
-    logs = {"three-room": {"myopic": {4: run(5e10), 8: [], 16: run(40.0)}, "anticipatory": {0: run(170.0), 4: []}},
-            "two-room": {"myopic": {0: run(40.0)}, "anticipatory": {0: run(150.0)}}}
+    run = lambda q: [
+        {"step": s, "success_rate": 0.5, "task_return": 1.0, "selected_q": q * s / 1000, "td_target": q * s / 1000}
+        for s in range(0, 1001, 100)
+    ]
+    logs = {
+        "three-room": {"myopic": {4: run(5e10), 8: [], 16: run(40.0)}, "anticipatory": {0: run(170.0), 4: []}},
+        "two-room": {"myopic": {0: run(40.0)}, "anticipatory": {0: run(150.0)}},
+    }
     monkeypatch.setattr(figs, "_save", lambda fig, path: fig)
     fig = figs.training_curves(logs, tmp_path / "a1.png")
     three, two = fig.axes[:4], fig.axes[4:]
     assert [t.get_text() for t in three[0].get_legend().get_texts()] == [
-        "myopic: 2 of 3 seeds (4, 16)", "anticipatory: 1 of 2 seeds (0)"]
+        "myopic: 2 of 3 seeds (4, 16)",
+        "anticipatory: 1 of 2 seeds (0)",
+    ]
     assert [ax.get_yscale() for ax in three] == ["linear", "linear", "symlog", "symlog"]
     assert [ax.get_yscale() for ax in two] == ["linear"] * 4
     assert [t.get_text() for t in two[0].get_legend().get_texts()] == [
-        "myopic: 1 of 1 seed (0)", "anticipatory: 1 of 1 seed (0)"]
+        "myopic: 1 of 1 seed (0)",
+        "anticipatory: 1 of 1 seed (0)",
+    ]
 
 
 def test_report_only_from_the_committed_results(tmp_path, monkeypatch):
@@ -185,14 +214,24 @@ def test_report_only_from_the_committed_results(tmp_path, monkeypatch):
     start = time.perf_counter()
     text = report(["two-room", "three-room"], Context(), out, "python -m experiments.reproduce --report-only")
     assert time.perf_counter() - start < 120
-    for heading in ("## Table 5.2", "## Table 5.3", "## Table A.4", "## Held-out seven", "## Share of the clairvoyant",
-                    "## Statistics", "## Figures", "## Runs not yet made", "## Provenance of the results files"):
+    for heading in (
+        "## Table 5.2",
+        "## Table 5.3",
+        "## Table A.4",
+        "## Held-out seven",
+        "## Share of the clairvoyant",
+        "## Statistics",
+        "## Figures",
+        "## Runs not yet made",
+        "## Provenance of the results files",
+    ):
         assert heading in text
     oracle = json.loads((ROOT / "results" / "myopic-oracle-two-room.json").read_text())["cost_per_task"]
     assert f"| Myopic oracle | {oracle:,.1f}" in text
     # the two-room augmented GNN row names every finished results file, or says "not run" with its command
-    row = next(line for line in text.splitlines()
-               if line.startswith("| One-task GNN (augmented, clause-library candidates) |"))
+    row = next(
+        line for line in text.splitlines() if line.startswith("| One-task GNN (augmented, clause-library candidates) |")
+    )
     files = [f.name for f in (ROOT / "results").glob("gnn-native-augmented-two-room-seed*-clause-library.json")]
     if files:
         assert all(f"`{name}`" in row for name in files) and f"{len(files)} of 4" in row
@@ -213,7 +252,7 @@ def test_training_curves_leave_out_runs_in_progress(tmp_path, monkeypatch):
     (tmp_path / "results" / "training-myopic-two-room-seed4.json").write_text("{}")
     assert training_logs("two-room", "myopic") == [(4, "runs/dqn/restaurant-two-room-myopic-seed4/metrics.jsonl")]
     assert training_logs("two-room", "anticipatory") == []
-    (tmp_path / "results" / "training-myopic-two-room-seed4.json").write_text('{"curve": []}')   # kept with its curve
+    (tmp_path / "results" / "training-myopic-two-room-seed4.json").write_text('{"curve": []}')  # kept with its curve
     assert training_logs("two-room", "myopic") == [(4, "results/training-myopic-two-room-seed4.json")]
 
 
@@ -230,12 +269,12 @@ def test_a_figure_from_training_logs_is_kept_where_the_logs_are_not(tmp_path):
         path.write_bytes(b"new")
         return path
 
-    assert from_logs(draw, png, [str(log)]) == (png, 0) and png.read_bytes() == b"new"    # no PNG yet: drawn
+    assert from_logs(draw, png, [str(log)]) == (png, 0) and png.read_bytes() == b"new"  # no PNG yet: drawn
     png.write_bytes(b"committed")
     assert from_logs(draw, png, [str(log), str(tmp_path / "other.jsonl")]) == (png, 2)
-    assert png.read_bytes() == b"committed" and len(drawn) == 1                           # kept, not redrawn
+    assert png.read_bytes() == b"committed" and len(drawn) == 1  # kept, not redrawn
     log.write_text("{}")
-    assert from_logs(draw, png, [str(log)]) == (png, 0) and png.read_bytes() == b"new"    # every log here
+    assert from_logs(draw, png, [str(log)]) == (png, 0) and png.read_bytes() == b"new"  # every log here
 
 
 def test_a_bound_run_is_reported_beside_its_twin(tmp_path, monkeypatch):
@@ -249,14 +288,24 @@ def test_a_bound_run_is_reported_beside_its_twin(tmp_path, monkeypatch):
     write = lambda name, d: (tmp_path / "results" / name).write_text(json.dumps(d))
     for bound, q in (("none", 5.0e10), ("return", 42.4)):
         tail = "" if bound == "none" else "-bound-return"
-        write(f"training-myopic-three-room-seed4{tail}.json",
-              {"layout": "three-room", "horizon": "myopic", "seed": 4, "target_bound": bound,
-               "peak_selected_q": {"step": 500_000, "selected_q": q}, "at": {"500000": {"success_last_100": 0.5}}})
+        write(
+            f"training-myopic-three-room-seed4{tail}.json",
+            {
+                "layout": "three-room",
+                "horizon": "myopic",
+                "seed": 4,
+                "target_bound": bound,
+                "peak_selected_q": {"step": 500_000, "selected_q": q},
+                "at": {"500000": {"success_last_100": 0.5}},
+            },
+        )
     write("rl-greedy-myopic-three-room-seed4.json", {"success_rate": 0.148, "cost_per_task": 10332.95})
     write("rl-guided-myopic-three-room-seed4.json", {"cost_per_task": 1467.25, "improvement_vs_myopic": -0.035})
     rows = [line for line in target_bound_runs() if line.startswith("| three-room")]
-    assert rows == ["| three-room | myopic | 4 | none | 50,000,000,000.0 | 0.50 | 14.8% | 10,333.0 | 1,467.2 | −3.5% |",
-                    "| three-room | myopic | 4 | return | 42.4 | 0.50 | not run | — | not run | — |"]
+    assert rows == [
+        "| three-room | myopic | 4 | none | 50,000,000,000.0 | 0.50 | 14.8% | 10,333.0 | 1,467.2 | −3.5% |",
+        "| three-room | myopic | 4 | return | 42.4 | 0.50 | not run | — | not run | — |",
+    ]
 
 
 def test_both_reports_open_and_close_with_their_provenance():
@@ -268,7 +317,14 @@ def test_both_reports_open_and_close_with_their_provenance():
     assert [line.split(":")[0] for line in head] == ["- commit", "- command", "- date", "- machine"]
     assert head[1] == "- command: `python -m experiments.reproduce --report-only`"
     assert provenance.closing({}) == [
-        "## Runs not yet made", "", "Every run the tables expect has a results file.", "",
-        "## Provenance of the results files", "",
+        "## Runs not yet made",
+        "",
+        "Every run the tables expect has a results file.",
+        "",
+        "## Provenance of the results files",
+        "",
         "| results file | use | failed-task accounting | commit | date | machine | command | configuration | "
-        "checkpoint sha256 | flags (bold) and notes |", "|" + "---|" * 10, ""]
+        "checkpoint sha256 | flags (bold) and notes |",
+        "|" + "---|" * 10,
+        "",
+    ]

@@ -1,6 +1,7 @@
 """`python -m experiments.reproduce --domain DIR` on a domain other than the restaurant: the folder's layouts, the
 tables that apply, what does not, every missing run's command naming the domain; into a tmp output, with the
 committed docs/results.md untouched."""
+
 import json
 import shutil
 import sys
@@ -44,18 +45,31 @@ def test_report_only_on_the_minimal_domain(minimal_copy, monkeypatch, capsys):
     assert not (minimal_copy / "out" / "figures").exists() and not (minimal_copy / "docs").exists()
     assert text.startswith("# Measured results: minimal\n")
     assert "- grid: 30 atoms, 86 ground actions, 3 task instances of 2 types (`grid.pddl`)" in text
-    assert ("- grid: no canonical sequences in `minimal/sequences/grid`: `python -m planning.world.sequences "
-            "--domain minimal --layout grid` writes them") in text
-    for heading in ("## Methods (Table 5.2's columns)", "## The learned values, greedy and guided",
-                    "## Held-out seven against development three", "## Share of the clairvoyant saving",
-                    "## Statistics", "## Not applicable to this domain", "## Runs not yet made", "## Provenance"):
+    assert (
+        "- grid: no canonical sequences in `minimal/sequences/grid`: `python -m planning.world.sequences "
+        "--domain minimal --layout grid` writes them"
+    ) in text
+    for heading in (
+        "## Methods (Table 5.2's columns)",
+        "## The learned values, greedy and guided",
+        "## Held-out seven against development three",
+        "## Share of the clairvoyant saving",
+        "## Statistics",
+        "## Not applicable to this domain",
+        "## Runs not yet made",
+        "## Provenance",
+    ):
         assert heading in text
     for thesis_only in ("## Table 5.3", "## Table A.5", "## Figures", "thesis cost/task", "Reward calibration"):
         assert thesis_only not in text
-    assert ("`python -m experiments.evaluate --agent myopic-oracle --layout grid --domain minimal "
-            "--out results/minimal-myopic-oracle-grid.json`") in text
-    assert ("train: `python -m learning.dqn --domain minimal --layout grid --horizon anticipatory --seed 0 && "
-            "python -m learning.export runs/dqn/minimal-grid-anticipatory-seed0`") in text
+    assert (
+        "`python -m experiments.evaluate --agent myopic-oracle --layout grid --domain minimal "
+        "--out results/minimal-myopic-oracle-grid.json`"
+    ) in text
+    assert (
+        "train: `python -m learning.dqn --domain minimal --layout grid --horizon anticipatory --seed 0 && "
+        "python -m learning.export runs/dqn/minimal-grid-anticipatory-seed0`"
+    ) in text
     assert "| Myopic oracle (Fast Downward) | not run" in text
 
 
@@ -68,7 +82,8 @@ def test_a_played_row_is_reported(minimal_copy, monkeypatch):
     ctx = Context("minimal")
     row = next(r for r in domain.rows(ctx, "grid") if r.key == "myopic-oracle-internal")
     assert reproduce.run_missing([row], ctx, ids=[0, 1], progress=False) == [
-        "results/minimal-myopic-oracle-internal-grid.json"]
+        "results/minimal-myopic-oracle-internal-grid.json"
+    ]
     data = json.loads(Path("results/minimal-myopic-oracle-internal-grid.json").read_text())
     assert load_rows([row], ctx)["myopic-oracle-internal"].figures()["sequences"] == [0, 1]
     assert run_reproduce(monkeypatch, "--domain", "minimal", "--report-only") == 0

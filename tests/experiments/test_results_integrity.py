@@ -1,5 +1,6 @@
 """Results that cannot mislead: reruns report what they ran, results are tied to their domain's content,
 and an improvement is measured only against a reference that played the same tasks."""
+
 import json
 import shutil
 import subprocess
@@ -37,8 +38,9 @@ def short(monkeypatch, n):
     import planning.world.sequences as ev
 
     real = ev.load
-    monkeypatch.setattr(ev, "load", lambda model, ids: [Sequence(i, s.reset_seed, s.tasks[:n])
-                                                        for i, s in zip(ids, real(model, ids))])
+    monkeypatch.setattr(
+        ev, "load", lambda model, ids: [Sequence(i, s.reset_seed, s.tasks[:n]) for i, s in zip(ids, real(model, ids))]
+    )
 
 
 def test_a_rerun_prints_the_figures_of_the_sequences_asked_for(two_room, tmp_path, monkeypatch):
@@ -61,7 +63,7 @@ def test_committed_clairvoyant_rerun_of_one_sequence_prints_that_sequence():
     r = cli("oracles.clairvoyant", "--K", "3", "--layout", "three-room", "--sequences", "0", "--no-progress")
     assert r.returncode == 0, r.stderr[-1500:]
     assert "cost per task 930.5," in r.stdout and "nothing played" in r.stdout and "wrote" not in r.stdout
-    card = cli("oracles.clairvoyant", "--K", "3", "--no-progress")       # two-room, the default 60 s
+    card = cli("oracles.clairvoyant", "--K", "3", "--no-progress")  # two-room, the default 60 s
     assert card.returncode == 0, card.stderr[-1500:]
     assert "cost per task 850.8," in card.stdout and "nothing played" in card.stdout
 
@@ -70,8 +72,20 @@ def test_the_myopic_oracle_out_of_time_everywhere_costs_the_oracle(tmp_path):
     """--time-limit 0.001 times out on nearly every task: the fallback completes each one, so the run costs
     exactly what the internal myopic oracle costs on that sequence, and claims no improvement."""
     out = tmp_path / "m.json"
-    r = cli("oracles.myopic", "--planner", "internal", "--layout", "two-room", "--sequences", "0",
-            "--time-limit", "0.001", "--out", str(out), "--no-progress")
+    r = cli(
+        "oracles.myopic",
+        "--planner",
+        "internal",
+        "--layout",
+        "two-room",
+        "--sequences",
+        "0",
+        "--time-limit",
+        "0.001",
+        "--out",
+        str(out),
+        "--no-progress",
+    )
     assert r.returncode == 0, r.stderr[-1500:]
     ran = json.loads(out.read_text())
     oracle = json.loads((ROOT / "results/myopic-oracle-internal-two-room.json").read_text())
@@ -94,8 +108,9 @@ def test_a_rerun_after_a_pddl_edit_stops_naming_the_file(copy_of_restaurant, tmp
     out = tmp_path / "r.json"
     first = evaluate(model, Never(), [0], out, progress=False)
     problem = copy_of_restaurant / "two-room.pddl"
-    problem.write_text(problem.read_text().replace("(= (move-cost shelf fountain) 200)",
-                                                   "(= (move-cost shelf fountain) 300)"))
+    problem.write_text(
+        problem.read_text().replace("(= (move-cost shelf fountain) 200)", "(= (move-cost shelf fountain) 300)")
+    )
     edited = compile_domain(copy_of_restaurant, "two-room")
     with pytest.raises(DomainError, match=r"other content of domain 'restaurant' \(changed: two-room.pddl\)"):
         evaluate(edited, Never(), [0, 1], out, progress=False)
@@ -113,9 +128,10 @@ def test_a_domain_is_named_by_its_define_and_other_domains_get_their_own_file_na
     agent = RandomPolicy(seed=0)
     assert default_out(agent, model) == "results/minimal-random-seed0-grid.json"
     from learning.reward import calibration_path
+
     assert str(calibration_path(model)) == "results/calibration-minimal-grid.json"
     restaurant = compile_domain(ROOT / "domains" / "restaurant", "two-room")
-    assert default_out(agent, restaurant) == "results/random-seed0-two-room.json"      # committed names stay
+    assert default_out(agent, restaurant) == "results/random-seed0-two-room.json"  # committed names stay
 
 
 def test_improvement_only_against_a_reference_that_played_the_same_tasks(copy_of_restaurant, tmp_path, monkeypatch):
@@ -163,8 +179,10 @@ def test_two_writers_of_one_results_file(two_room, tmp_path, monkeypatch):
 
     monkeypatch.chdir(tmp_path)
     out = tmp_path / "r.json"
-    script = ("import sys, time; sys.path.insert(0, sys.argv[1]); from planning.atomic import OutputLock\n"
-              "with OutputLock(sys.argv[2]):\n    print('held', flush=True); time.sleep(30)\n")
+    script = (
+        "import sys, time; sys.path.insert(0, sys.argv[1]); from planning.atomic import OutputLock\n"
+        "with OutputLock(sys.argv[2]):\n    print('held', flush=True); time.sleep(30)\n"
+    )
     holder = subprocess.Popen([sys.executable, "-c", script, str(ROOT), str(out)], stdout=subprocess.PIPE, text=True)
     try:
         assert holder.stdout.readline().strip() == "held"
@@ -173,7 +191,7 @@ def test_two_writers_of_one_results_file(two_room, tmp_path, monkeypatch):
     finally:
         holder.kill()
         holder.wait()
-    with OutputLock(out):                  # the lock went with the process that held it
+    with OutputLock(out):  # the lock went with the process that held it
         pass
 
 
@@ -200,14 +218,15 @@ def test_the_digest_follows_the_world_not_comments_or_tool_settings(copy_of_rest
     first = digest()
     toml = copy_of_restaurant / "domain.toml"
     toml.write_text("# a comment\n" + toml.read_text().replace("depth_cap = 20", "depth_cap = 30"))
-    assert digest() == first                    # a comment and a [search] default: the same world
+    assert digest() == first  # a comment and a [search] default: the same world
     (copy_of_restaurant / "three-room.pddl").write_text("; another layout's problem is not part of two-room\n")
     assert digest() == first
     toml.write_text(toml.read_text().replace("[tasks.wash]\nprobability = 0.30", "[tasks.wash]\nprobability = 0.31"))
     changed = digest()
     assert changed["domain_sha256"] != first["domain_sha256"]
-    assert [n for n in changed["domain_files"] if changed["domain_files"][n] != first["domain_files"][n]] == \
-        ["domain.toml"]
+    assert [n for n in changed["domain_files"] if changed["domain_files"][n] != first["domain_files"][n]] == [
+        "domain.toml"
+    ]
 
 
 def test_a_run_under_the_thesis_protocol_gets_its_own_default_file(two_room):

@@ -8,6 +8,7 @@ action count, success and status. A refactor that changes any choice of any
 agent fails here. Slow (seconds to minutes per agent): run with
 `pytest -m slow tests/experiments/test_rows_reproduce.py`.
 """
+
 from __future__ import annotations
 
 import json
@@ -45,8 +46,7 @@ def command_of(name: str, out: Path) -> list[str]:
             skip = drop[a]
         else:
             kept.append(a)
-    return [sys.executable, "-m", "experiments.evaluate", *kept,
-            "--sequences", "0", "--out", str(out), "--no-progress"]
+    return [sys.executable, "-m", "experiments.evaluate", *kept, "--sequences", "0", "--out", str(out), "--no-progress"]
 
 
 @pytest.mark.slow

@@ -1,4 +1,5 @@
 """β selection reports the development and held-out splits apart, each against the myopic oracle."""
+
 from experiments.select_beta import split_costs
 
 

@@ -1,4 +1,5 @@
 """Evaluations and sweeps over workers give the serial run's results (local processes, and Ray when installed)."""
+
 import json
 import shutil
 import subprocess
@@ -18,8 +19,16 @@ from planning.world.runner import evaluate
 from planning.world.sequences import generate
 
 ROOT = Path(__file__).resolve().parents[2]
-TIMINGS = {"seconds", "wall_seconds", "window_seconds", "fallback_seconds", "search_seconds", "item_seconds",
-           "provenance", "ran"}
+TIMINGS = {
+    "seconds",
+    "wall_seconds",
+    "window_seconds",
+    "fallback_seconds",
+    "search_seconds",
+    "item_seconds",
+    "provenance",
+    "ran",
+}
 RANDOM = ["--agent", "random", "--seed", "3"]
 MYOPIC = ["--agent", "myopic-oracle", "--planner", "internal"]
 
@@ -69,8 +78,9 @@ def square(x):
 
 def test_run_items_keeps_the_order_and_reports_each_item():
     seen = []
-    assert run_items(square, [3, 1, 2], workers=2, progress=False,
-                     on_result=lambda i, r, meta: seen.append((i, r))) == [9, 1, 4]
+    assert run_items(
+        square, [3, 1, 2], workers=2, progress=False, on_result=lambda i, r, meta: seen.append((i, r))
+    ) == [9, 1, 4]
     assert sorted(seen) == [(0, 9), (1, 1), (2, 4)]
 
 
@@ -85,14 +95,34 @@ def test_two_workers_give_the_serial_results(tiny, tmp_path, argv):
 def test_the_command_line_with_two_workers(tiny, tmp_path):
     serial = run(job(tiny, tmp_path / "serial.json", RANDOM))
     out = tmp_path / "cli.json"
-    r = subprocess.run([sys.executable, "-m", "experiments.evaluate", *RANDOM, "--domain", str(tiny), "--layout",
-                        "grid", "--sequences", "0-1", "--out", str(out), "--workers", "2"],
-                       capture_output=True, text=True, cwd=ROOT, timeout=300)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "experiments.evaluate",
+            *RANDOM,
+            "--domain",
+            str(tiny),
+            "--layout",
+            "grid",
+            "--sequences",
+            "0-1",
+            "--out",
+            str(out),
+            "--workers",
+            "2",
+        ],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=300,
+    )
     assert r.returncode == 0, r.stderr[-2000:]
     written = json.loads(out.read_text())
-    assert {k: v for k, v in strip(written).items() if k != "improvement_note"} == \
-        {k: v for k, v in strip(serial).items() if k != "improvement_note"}
-    assert written["provenance"]["played_in_this_process"] == [0, 1]         # played by its workers
+    assert {k: v for k, v in strip(written).items() if k != "improvement_note"} == {
+        k: v for k, v in strip(serial).items() if k != "improvement_note"
+    }
+    assert written["provenance"]["played_in_this_process"] == [0, 1]  # played by its workers
     assert "played sequences 0-1" in r.stdout
 
 
@@ -102,9 +132,18 @@ def test_each_sequence_has_its_own_file_and_a_rerun_reuses_it(tiny, tmp_path):
     # An interrupted run left sequence 0's file (marked), not sequence 1's.
     j = job(tiny, out, RANDOM)
     rows = [dict(r, seconds=7.0) for r in serial["per_task"] if r["sequence"] == 0]
-    write_json(tmp_path / "r.json.parts" / "seq-00.json",
-               {"agent": "random", "layout": "grid", "config": j.agent.config, "failure_protocol": "fallback",
-                "sequence": 0, "rows": rows, "wall_seconds": 1.0})
+    write_json(
+        tmp_path / "r.json.parts" / "seq-00.json",
+        {
+            "agent": "random",
+            "layout": "grid",
+            "config": j.agent.config,
+            "failure_protocol": "fallback",
+            "sequence": 0,
+            "rows": rows,
+            "wall_seconds": 1.0,
+        },
+    )
     played = play_over_workers([j], workers=2, progress=False)
     assert (played["items"], played["reused"]) == (1, 1)
     resumed = evaluate(j.model, j.agent, j.ids, j.out, progress=False, played_by_workers=played["played"])
@@ -131,15 +170,41 @@ def test_ray_gives_the_serial_results(tiny, tmp_path):
 
 
 # ---- sweeps ----------------------------------------------------------------------------------
-TRAIN = ["--horizon", "anticipatory", "--seed", "0-1", "--steps", "120", "--demo-tasks", "0", "--learning-starts",
-         "40", "--eval-every", "120", "--eval-tasks", "4", "--log-every", "60", "--checkpoint-every", "120",
-         "--hidden", "32", "--batch-size", "16"]
+TRAIN = [
+    "--horizon",
+    "anticipatory",
+    "--seed",
+    "0-1",
+    "--steps",
+    "120",
+    "--demo-tasks",
+    "0",
+    "--learning-starts",
+    "40",
+    "--eval-every",
+    "120",
+    "--eval-tasks",
+    "4",
+    "--log-every",
+    "60",
+    "--checkpoint-every",
+    "120",
+    "--hidden",
+    "32",
+    "--batch-size",
+    "16",
+]
 
 
 def sweep(tiny, tmp_path, name, *extra):
     out = tmp_path / f"{name}.json"
-    r = subprocess.run([sys.executable, "-m", "experiments.sweep", "--domain", str(tiny), "--out", str(out),
-                        "--no-progress", *extra], capture_output=True, text=True, cwd=tmp_path, timeout=600)
+    r = subprocess.run(
+        [sys.executable, "-m", "experiments.sweep", "--domain", str(tiny), "--out", str(out), "--no-progress", *extra],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=600,
+    )
     assert r.returncode == 0, r.stderr[-2000:]
     return json.loads(out.read_text())
 
@@ -169,14 +234,14 @@ def test_a_sweep_over_workers_gives_the_serial_results(tiny, tmp_path, serial_sw
     where, ckpt, serial, g1 = serial_sweeps
     spread = sweep(tiny, tmp_path, "spread", *TRAIN, "--runs", "runs/spread", *how)
     assert [p["seed"] for p in serial["points"]] == [0, 1] and points(spread) == points(serial)
-    assert len(list((tmp_path / "spread.json.parts").glob("*.json"))) == 2     # one file per run, kept
+    assert len(list((tmp_path / "spread.json.parts").glob("*.json"))) == 2  # one file per run, kept
     g2 = sweep(tiny, tmp_path, "g-spread", *GUIDED, "--checkpoint", ckpt, "--results", "r-spread", *how)
     assert [(p["beta"], p["budget"]) for p in g1["points"]] == [(1.0, 50), (2.0, 50)]
     assert points(g2) == points(g1)
     for a, b in zip(g1["points"], g2["points"]):
         ra, rb = json.loads((where / a["file"]).read_text()), json.loads((tmp_path / b["file"]).read_text())
         assert strip(ra) == strip(rb)
-    if mode == "workers":                 # a rerun reuses every run's file
+    if mode == "workers":  # a rerun reuses every run's file
         again = sweep(tiny, tmp_path, "spread", *TRAIN, "--runs", "runs/spread", *how)
         assert again["items_reused"] == 2 and points(again) == points(serial)
 
@@ -185,11 +250,22 @@ def test_a_training_sweeps_summary_is_named_after_its_grid():
     """Two sweeps of one domain keep their own summaries: the default name spells the grid."""
     from experiments.sweep import summary_name
 
-    assert summary_name("restaurant", {"layout": ["three-room"], "horizon": ["anticipatory"], "seed": [42]}) \
+    assert (
+        summary_name("restaurant", {"layout": ["three-room"], "horizon": ["anticipatory"], "seed": [42]})
         == "train-restaurant-three-room-anticipatory-seed42"
-    assert summary_name("restaurant", {"layout": ["two-room", "three-room"], "horizon": ["myopic"],
-                                       "seed": [0, 1, 2, 3, 8, 16, 17], "gamma": [0.95, 0.97]}) \
+    )
+    assert (
+        summary_name(
+            "restaurant",
+            {
+                "layout": ["two-room", "three-room"],
+                "horizon": ["myopic"],
+                "seed": [0, 1, 2, 3, 8, 16, 17],
+                "gamma": [0.95, 0.97],
+            },
+        )
         == "train-restaurant-two-room+three-room-myopic-seed0-3+8+16-17-gamma0.95+0.97"
+    )
 
 
 def test_a_deployed_sweep_exports_each_run_and_plays_it_greedily(tiny, tmp_path):
@@ -197,9 +273,22 @@ def test_a_deployed_sweep_exports_each_run_and_plays_it_greedily(tiny, tmp_path)
     learning.export and experiments.evaluate name them; the results file is the greedy evaluation's."""
     from learning.q.value import load_value_function
 
-    one = [a if a != "0-1" else "1" for a in TRAIN]                      # seed 1 only
-    r = sweep(tiny, tmp_path, "deploy", *one, "--runs", "runs/d", "--deploy", "--sequences", "0-1",
-              "--checkpoints", "ck", "--results", "res")
+    one = [a if a != "0-1" else "1" for a in TRAIN]  # seed 1 only
+    r = sweep(
+        tiny,
+        tmp_path,
+        "deploy",
+        *one,
+        "--runs",
+        "runs/d",
+        "--deploy",
+        "--sequences",
+        "0-1",
+        "--checkpoints",
+        "ck",
+        "--results",
+        "res",
+    )
     (point,) = r["points"]
     g = point["greedy"]
     assert g["checkpoint"] == "ck/minimal-rl-anticipatory-grid-seed1.pt" and g["sequences"] == [0, 1]
@@ -215,6 +304,19 @@ def test_a_deployed_sweep_exports_each_run_and_plays_it_greedily(tiny, tmp_path)
     states = model.random_walk_states(30, seed=4)
     for t in range(len(model.tasks)):
         assert list(full.greedy(states, t)) == list(small.greedy(states, t))
-    again = sweep(tiny, tmp_path, "deploy", *one, "--runs", "runs/d", "--deploy", "--sequences", "0-1",
-                  "--checkpoints", "ck", "--results", "res")
+    again = sweep(
+        tiny,
+        tmp_path,
+        "deploy",
+        *one,
+        "--runs",
+        "runs/d",
+        "--deploy",
+        "--sequences",
+        "0-1",
+        "--checkpoints",
+        "ck",
+        "--results",
+        "res",
+    )
     assert again["items_reused"] == 1 and again["points"][0]["greedy"] == g

@@ -1,4 +1,5 @@
 """learning.agents.bench_bn: the search timed against the reference implementation in the same run."""
+
 from pathlib import Path
 
 import pytest
@@ -23,6 +24,7 @@ def test_benchmark_reports_the_ratio_and_the_same_plans(two_room):
         assert r[key]["per_expansion"] > 0 and r[key]["cpu"] > 0
     assert r["reference_implementation"]["expansions_per_s"] > 0
     assert all(t["expansions"] == 300 for t in r["per_task"])
-    alone = benchmark(two_room, value, seq.tasks[:2], seq.reset_seed, budget=100, beta=1.25, progress=False,
-                      reference=False)
+    alone = benchmark(
+        two_room, value, seq.tasks[:2], seq.reset_seed, budget=100, beta=1.25, progress=False, reference=False
+    )
     assert "speedup" not in alone and alone["searched_tasks"] >= 1

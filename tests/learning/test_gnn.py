@@ -1,4 +1,5 @@
 """The one-task GNN baseline: the model's size, training, checkpoints, the value plug-in and native selection."""
+
 import json
 import pickle
 
@@ -84,8 +85,10 @@ def test_resumed_training_is_the_uninterrupted_run(dataset, tmp_path):
 def test_checkpoint_round_trip_and_refusals(encoder, tmp_path):
     torch.manual_seed(0)
     net = GNNCostModel(encoder.num_features).eval()
-    path = save_gnn_checkpoint(tmp_path / "gnn.pt", {"model": net.state_dict(), "dims": net.dims,
-                                                     "feature_names": encoder.feature_names, "epoch": 3})
+    path = save_gnn_checkpoint(
+        tmp_path / "gnn.pt",
+        {"model": net.state_dict(), "dims": net.dims, "feature_names": encoder.feature_names, "epoch": 3},
+    )
     back, payload = load_gnn(path)
     g = encoder.encode(encoder.model.init)
     assert torch.equal(back.predict(g), net.predict(g)) and payload["epoch"] == 3
@@ -109,13 +112,15 @@ def test_value_honours_the_protocol(minimal, value):
     assert isinstance(value, Value) and value.gamma == 1.0
     calls = value.forward_calls
     c = value.c_ap(states)
-    assert value.forward_calls == calls + 1 and c.shape == (len(states),)       # one forward pass per batch
+    assert value.forward_calls == calls + 1 and c.shape == (len(states),)  # one forward pass per batch
     task = minimal.tasks.get("clear(c)")
-    assert np.allclose(value.v_ap(states), -c / value.scale) and np.allclose(value.q_max(states, task), -c / value.scale)
+    assert np.allclose(value.v_ap(states), -c / value.scale) and np.allclose(
+        value.q_max(states, task), -c / value.scale
+    )
     with torch.no_grad():
-        one = [float(value.net.predict(value.encoder.encode(s))) for s in states]    # batched = one by one
+        one = [float(value.net.predict(value.encoder.encode(s))) for s in states]  # batched = one by one
     assert np.allclose(c, one, atol=1e-4)
-    assert value.forward_calls == calls + 1                                    # cached
+    assert value.forward_calls == calls + 1  # cached
     assert value.v_ap([]).shape == (0,)
 
 
@@ -138,7 +143,7 @@ def test_value_with_a_full_cache_still_answers_every_state(minimal, encoder):
     small = GNNValue((net, {"feature_names": encoder.feature_names}), minimal, encoder=encoder, cache_size=6)
     states = list(dict.fromkeys(minimal.random_walk_states(80, 5)))[:10]
     first = small.c_ap(states[:4])
-    both = small.c_ap(states[:4] + states[4:8])                 # 4 cached + 4 new > 6
+    both = small.c_ap(states[:4] + states[4:8])  # 4 cached + 4 new > 6
     assert np.allclose(both[:4], first) and len(small._cache) <= 8
 
 
@@ -149,7 +154,7 @@ def test_inference_forward_is_the_modules(minimal, encoder, edge_dim):
 
     torch.manual_seed(3)
     net = GNNCostModel(encoder.num_features, edge_dim=len(encoder.relation_names) if edge_dim else None)
-    for norm in net.norms:                                   # running statistics other than the identity
+    for norm in net.norms:  # running statistics other than the identity
         norm.running_mean.uniform_(-1, 1)
         norm.running_var.uniform_(0.5, 2)
     net.eval()
@@ -175,10 +180,10 @@ def test_value_refuses_another_layouts_model(minimal, encoder):
 
 
 def test_select_lowest_score_myopic_kept_on_ties():
-    assert select([10, 12, 11], [5.0, 1.0, 4.0]) == 1          # 15, 13, 15
-    assert select([10, 12], [5.0, 3.0]) == 0                   # 15, 15: a tie keeps the myopic plan
+    assert select([10, 12, 11], [5.0, 1.0, 4.0]) == 1  # 15, 13, 15
+    assert select([10, 12], [5.0, 3.0]) == 0  # 15, 15: a tie keeps the myopic plan
     assert select([10, 12, 11], [5.0, 3.0, 4.0]) == 0
-    assert select([10, 11, 11], [5.0, 3.0, 3.0]) == 1          # the first of tied strictly better ones
+    assert select([10, 11, 11], [5.0, 3.0, 3.0]) == 1  # the first of tied strictly better ones
     assert select([7], [0.0]) == 0
 
 
@@ -202,7 +207,7 @@ def test_native_selection_with_a_stub_estimator(minimal, monkeypatch, bonus, cho
     state = minimal.init
     seen = []
 
-    def estimate(states):                   # the stub: 0 for the myopic end state, `bonus` for the detour's
+    def estimate(states):  # the stub: 0 for the myopic end state, `bonus` for the detour's
         seen.append(list(states))
         return np.array([0.0, bonus][: len(states)])
 
@@ -226,7 +231,7 @@ def test_candidate_cache_replays_what_was_planned(minimal, monkeypatch, tmp_path
     first = GNNNativePlanner(minimal, "stub", estimate=zero, candidates=str(path))
     first.start(minimal, None)
     r1 = first.plan(minimal.init, task, [])
-    assert first.cache.misses == 1 and len(path.read_text().splitlines()) == 2       # the header and the entry
+    assert first.cache.misses == 1 and len(path.read_text().splitlines()) == 2  # the header and the entry
     again = GNNNativePlanner(minimal, "stub", estimate=zero, candidates=str(path))
     again.start(minimal, None)
     monkeypatch.setattr(again.reference, "plan", lambda *a: pytest.fail("planned a cached task"))
@@ -241,14 +246,16 @@ def test_candidate_cache_replays_what_was_planned(minimal, monkeypatch, tmp_path
 def test_candidate_accuracy_against_exact_labels():
     """Task 1: the estimate prefers the detour (20 + 50 < 10 + 100), the exact labels the myopic plan
     (10 + 100 < 20 + 200): a wrong choice costing 110. Task 2: both pick the myopic plan."""
-    rows = [{"c_ap_hat": [100, 50], "c_ap_exact": [100, 200], "candidate_costs": [10, 20]},
-            {"c_ap_hat": [10, 30], "c_ap_exact": [12, 28], "candidate_costs": [5, 5]},
-            {"c_ap_hat": [7], "candidate_costs": [3]}]                  # no exact labels: not counted
+    rows = [
+        {"c_ap_hat": [100, 50], "c_ap_exact": [100, 200], "candidate_costs": [10, 20]},
+        {"c_ap_hat": [10, 30], "c_ap_exact": [12, 28], "candidate_costs": [5, 5]},
+        {"c_ap_hat": [7], "candidate_costs": [3]},
+    ]  # no exact labels: not counted
     a = candidate_accuracy(rows)
     assert a["tasks"] == 2 and a["candidates"] == 4 and a["mae"] == 38.5
     assert a["within_task_pairs_right"] == 0.5 and a["same_choice_as_exact"] == 0.5 and a["mean_excess"] == 55.0
-    assert a["exact_departs"] == 0.0 and a["exact_gain"] == 0.0               # exact labels keep the myopic plan
-    rows[1]["c_ap_exact"] = [12, 2]                                           # now the detour, 5 + 2 < 5 + 12
+    assert a["exact_departs"] == 0.0 and a["exact_gain"] == 0.0  # exact labels keep the myopic plan
+    rows[1]["c_ap_exact"] = [12, 2]  # now the detour, 5 + 2 < 5 + 12
     a = candidate_accuracy(rows)
     assert a["exact_departs"] == 0.5 and a["exact_gain"] == 5.0 and a["same_choice_as_exact"] == 0.0
     assert candidate_accuracy(rows[2:]) is None
@@ -264,9 +271,12 @@ def test_candidate_region_is_the_myopic_path_plus_one_move(two_room):
 def test_gnn_bench_scores_the_validation_split(minimal, encoder, dataset, tmp_path):
     """learning.gnn.bench: its MAE is the trainer's validation L1, its exact reference re-derives the labels."""
     from learning.gnn.bench import bench, pair_agreement
+
     assert pair_agreement(np.array([1.0, 2.0, 3.0]), np.array([10.0, 30.0, 20.0])) == pytest.approx(2 / 3)
     s = train(TrainConfig(data=str(dataset), seed=0, epochs=2), tmp_path, progress=False)
-    r = bench(str(tmp_path / "best.pt"), str(dataset), "domains/minimal", batch=6, repeats=2, n_exact=5, encoder=encoder)
+    r = bench(
+        str(tmp_path / "best.pt"), str(dataset), "domains/minimal", batch=6, repeats=2, n_exact=5, encoder=encoder
+    )
     assert r["validation"]["mae"] == pytest.approx(s["best_val_l1"], abs=0.01)
     assert r["inference"]["batch"] == 6 and r["exact"]["states"] == 5
     assert -1.0 <= r["validation"]["spearman"] <= 1.0
@@ -278,9 +288,10 @@ def test_compact_gnn_checkpoint_predicts_as_the_full_one(dataset, tmp_path):
     from torch_geometric.loader import DataLoader
 
     from learning.export import default_names, export_gnn, is_gnn_run
+
     s = train(TrainConfig(data=str(dataset), seed=0, epochs=2), tmp_path / "run", progress=False)
     assert is_gnn_run(tmp_path / "run")
-    with pytest.raises(DomainError, match="variant"):      # the test dataset's meta has no generator config
+    with pytest.raises(DomainError, match="variant"):  # the test dataset's meta has no generator config
         default_names(tmp_path / "run", gnn=True)
     small, figs = export_gnn(tmp_path / "run", tmp_path / "small.pt", tmp_path / "figs.json")
     assert figs["best_val_l1"] == s["best_val_l1"] and small["precision"] == "float16"
@@ -348,6 +359,6 @@ def test_dataset_export_writes_its_key_figures(dataset, tmp_path, capsys):
     assert d["c_ap"]["max"] == pytest.approx(max(meta["c_ap"]), abs=0.01) and "provenance" in d
     assert f"{meta['n']:,} states" in capsys.readouterr().out
     sys.argv = ["export", str(dataset), "--out", str(tmp_path / "x.pt")]
-    with pytest.raises(SystemExit) as e:      # a dataset has no checkpoint to write
+    with pytest.raises(SystemExit) as e:  # a dataset has no checkpoint to write
         export.main()
     assert e.value.code != 0

@@ -2,6 +2,7 @@
 [gnn.candidates]): its region, relevant objects, clause order and cap on hand-made restaurant states;
 its table checked; the domain digest left alone; and a native selection that takes a preparation
 exactly when the exact C_AP says it pays."""
+
 from __future__ import annotations
 
 import shutil
@@ -18,9 +19,21 @@ from planning.errors import DomainError
 ROOT = Path(__file__).resolve().parents[2]
 
 # a hand-made two-room state: the machine water used up, cup_0, bowl_0 and knife_0 dirty
-BASE = ["(robot-at countertop)", "(hand-free)", "(at cup_0 countertop)", "(dirty cup_0)", "(at cup_1 dishwasher)",
-        "(at water_fountain fountain)", "(at apple_0 countertop)", "(at bowl_0 countertop)", "(dirty bowl_0)",
-        "(at knife_0 countertop)", "(dirty knife_0)", "(at jar_0 shelf)", "(at plate_0 servingtable)"]
+BASE = [
+    "(robot-at countertop)",
+    "(hand-free)",
+    "(at cup_0 countertop)",
+    "(dirty cup_0)",
+    "(at cup_1 dishwasher)",
+    "(at water_fountain fountain)",
+    "(at apple_0 countertop)",
+    "(at bowl_0 countertop)",
+    "(dirty bowl_0)",
+    "(at knife_0 countertop)",
+    "(dirty knife_0)",
+    "(at jar_0 shelf)",
+    "(at plate_0 servingtable)",
+]
 
 
 def walk(model, state, names):
@@ -50,7 +63,7 @@ def test_region_is_the_path_plus_one_base_hop(two_room, three_room, focused):
     three = FocusedCandidates.from_model(three_room)
     everywhere = ["countertop", "coffeemachine", "dishwasher", "shelf", "servingtable", "fountain"]
     path, _ = walk(three_room, three_room.init, [f"move({a}, {b})" for a, b in zip(everywhere, everywhere[1:])])
-    assert three.region(path) == set(everywhere)                          # the pantry, 875 away, is not
+    assert three.region(path) == set(everywhere)  # the pantry, 875 away, is not
     assert three.region([three_room.state_from_atoms(["(robot-at pantry)", "(hand-free)"])]) == {"pantry"}
 
 
@@ -62,12 +75,20 @@ def test_relevant_objects(two_room, focused):
     _, plan = walk(two_room, s, ["move(countertop, dishwasher)", "pick(cup_1, dishwasher)"])
     assert "cup_1" in focused.relevant(s, plan, region) and "plate_0" not in focused.relevant(s, plan, region)
     full = two_room.state_from_atoms(BASE + ["(at water_machine coffeemachine)"])
-    assert "water_machine" in focused.relevant(full, [], region)           # at the coffee machine, in the region
-    far = two_room.state_from_atoms(["(robot-at servingtable)", "(hand-free)", "(at water_machine coffeemachine)",
-                                     "(at bowl_0 servingtable)", "(in apple_0 bowl_0)", "(at jar_0 shelf)"])
-    assert focused.relevant(far, [], focused.region([far])) == {"bowl_0", "apple_0"}     # the apple in the bowl
+    assert "water_machine" in focused.relevant(full, [], region)  # at the coffee machine, in the region
+    far = two_room.state_from_atoms(
+        [
+            "(robot-at servingtable)",
+            "(hand-free)",
+            "(at water_machine coffeemachine)",
+            "(at bowl_0 servingtable)",
+            "(in apple_0 bowl_0)",
+            "(at jar_0 shelf)",
+        ]
+    )
+    assert focused.relevant(far, [], focused.region([far])) == {"bowl_0", "apple_0"}  # the apple in the bowl
     empty = two_room.state_from_atoms(["(robot-at servingtable)", "(hand-free)", "(at jar_0 shelf)"])
-    assert focused.relevant(empty, [], focused.region([empty])) == {"water_machine"}       # used up: nowhere
+    assert focused.relevant(empty, [], focused.region([empty])) == {"water_machine"}  # used up: nowhere
 
 
 def test_clause_order_sorted_objects_families_in_order(two_room, focused):
@@ -78,13 +99,24 @@ def test_clause_order_sorted_objects_families_in_order(two_room, focused):
     path, plan = walk(two_room, s, ["move(countertop, fountain)"])
     assert focused.region(path) == {"countertop", "coffeemachine", "shelf", "fountain"}
     got = [(c.family, c.text) for c in focused.clauses(s, plan, path)]
-    assert got == [("clean", "(not (dirty bowl_0))"), ("clean", "(not (dirty cup_0))"), ("fill", "(has-water cup_0)"),
-                   ("fill", "(has-water jar_0)"), ("jar-to-coffee", "(at jar_0 coffeemachine)"),
-                   ("clean", "(not (dirty knife_0))"), ("machine-water", "(at water_machine coffeemachine)")]
+    assert got == [
+        ("clean", "(not (dirty bowl_0))"),
+        ("clean", "(not (dirty cup_0))"),
+        ("fill", "(has-water cup_0)"),
+        ("fill", "(has-water jar_0)"),
+        ("jar-to-coffee", "(at jar_0 coffeemachine)"),
+        ("clean", "(not (dirty knife_0))"),
+        ("machine-water", "(at water_machine coffeemachine)"),
+    ]
     # without the fountain in the region no fill; a clause that holds already (the jar at the machine) is not proposed
     at_machine = two_room.state_from_atoms([a for a in BASE if "jar_0" not in a] + ["(at jar_0 coffeemachine)"])
     got = [c.text for c in focused.clauses(at_machine, [], [at_machine])]
-    assert got == ["(not (dirty bowl_0))", "(not (dirty cup_0))", "(not (dirty knife_0))", "(at water_machine coffeemachine)"]
+    assert got == [
+        "(not (dirty bowl_0))",
+        "(not (dirty cup_0))",
+        "(not (dirty knife_0))",
+        "(at water_machine coffeemachine)",
+    ]
     c = focused.clauses(s, plan, path)[4]
     assert c.pos == 1 << two_room.atom_index[("at", "jar_0", "coffeemachine")] and c.neg == 0
     assert actions_along(two_room, path) == plan
@@ -100,8 +132,12 @@ def test_the_cap_keeps_the_first_clauses(two_room):
     kept, proposed = agent.proposed(s, path, plan)
     assert proposed == 7 and len(kept) == 7
     agent = GNNNativePlanner(two_room, "stub", max_clauses=3, estimate=zero)
-    kept, proposed = agent.proposed(s, path)                         # the plan recovered from the path
-    assert proposed == 7 and [c.name for c in kept] == ["(not (dirty bowl_0))", "(not (dirty cup_0))", "(has-water cup_0)"]
+    kept, proposed = agent.proposed(s, path)  # the plan recovered from the path
+    assert proposed == 7 and [c.name for c in kept] == [
+        "(not (dirty bowl_0))",
+        "(not (dirty cup_0))",
+        "(has-water cup_0)",
+    ]
 
 
 def test_a_domain_without_the_table_keeps_the_clause_library(minimal):
@@ -110,18 +146,24 @@ def test_a_domain_without_the_table_keeps_the_clause_library(minimal):
     assert agent.config["candidate_generator"]["kind"] == "clause-library" and agent.max_clauses == 10
 
 
-@pytest.mark.parametrize("table, match", [
-    ({"hop": 1}, "unknown key 'hop'"),
-    ({"hops": -1, "clause": [{}]}, "hops is -1"),
-    ({"clause": []}, "no \\[\\[gnn.candidates.clause\\]\\]"),
-    ({"clause": [{"name": "x", "roles": {"?o": "cupp"}, "goal": "(dirty ?o)"}]}, "type 'cupp'"),
-    ({"clause": [{"name": "x", "roles": {"?o": "cup"}, "goal": "(dirtyy ?o)"}]}, "predicate 'dirtyy'"),
-    ({"clause": [{"name": "x", "roles": {"?o": "cup"}, "goal": "(dirty ?p)"}]}, "uses \\?p"),
-    ({"clause": [{"name": "x", "roles": {"?o": "cup"}, "goal": "(or (dirty ?o))"}]}, "a goal is an atom"),
-    ({"clause": [{"name": "x", "roles": {"?o": "cup"}, "goal": "(in-region ?o)"}]}, "predicate 'in-region'"),
-    ({"clause": [{"name": "x", "roles": {"?o": "cup"}, "when": "(at ?o)", "goal": "(dirty ?o)"}]}, "takes 2 arguments"),
-    ({"clause": [{"name": "x", "roles": {"?o": "cup"}, "goal": "(dirty ?o"}]}, "names only"),
-])
+@pytest.mark.parametrize(
+    "table, match",
+    [
+        ({"hop": 1}, "unknown key 'hop'"),
+        ({"hops": -1, "clause": [{}]}, "hops is -1"),
+        ({"clause": []}, "no \\[\\[gnn.candidates.clause\\]\\]"),
+        ({"clause": [{"name": "x", "roles": {"?o": "cupp"}, "goal": "(dirty ?o)"}]}, "type 'cupp'"),
+        ({"clause": [{"name": "x", "roles": {"?o": "cup"}, "goal": "(dirtyy ?o)"}]}, "predicate 'dirtyy'"),
+        ({"clause": [{"name": "x", "roles": {"?o": "cup"}, "goal": "(dirty ?p)"}]}, "uses \\?p"),
+        ({"clause": [{"name": "x", "roles": {"?o": "cup"}, "goal": "(or (dirty ?o))"}]}, "a goal is an atom"),
+        ({"clause": [{"name": "x", "roles": {"?o": "cup"}, "goal": "(in-region ?o)"}]}, "predicate 'in-region'"),
+        (
+            {"clause": [{"name": "x", "roles": {"?o": "cup"}, "when": "(at ?o)", "goal": "(dirty ?o)"}]},
+            "takes 2 arguments",
+        ),
+        ({"clause": [{"name": "x", "roles": {"?o": "cup"}, "goal": "(dirty ?o"}]}, "names only"),
+    ],
+)
 def test_a_bad_table_is_one_line(two_room, table, match):
     with pytest.raises(DomainError, match=match):
         FocusedCandidates(two_room, table)
@@ -129,7 +171,10 @@ def test_a_bad_table_is_one_line(two_room, table, match):
 
 def test_formula_parser():
     assert parse_formula("(and (dirty ?o) (not (at ?o x)))") == (
-        "and", ("atom", "dirty", ("?o",)), ("not", ("atom", "at", ("?o", "x"))))
+        "and",
+        ("atom", "dirty", ("?o",)),
+        ("not", ("atom", "at", ("?o", "x"))),
+    )
     with pytest.raises(ValueError, match="text after"):
         parse_formula("(dirty ?o) (dirty ?p)")
 
@@ -144,8 +189,10 @@ def test_the_table_is_a_tool_setting_left_out_of_the_digest(tmp_path):
     text = (folder / "domain.toml").read_text()
     assert "[gnn.candidates]" in text
     (folder / "domain.toml").write_text(text[: text.index("[gnn.candidates]")])
-    assert identity(compile_domain(folder, "two-room"))["domain_sha256"] == \
-        identity(compile_domain(ROOT / "domains/restaurant", "two-room"))["domain_sha256"]
+    assert (
+        identity(compile_domain(folder, "two-room"))["domain_sha256"]
+        == identity(compile_domain(ROOT / "domains/restaurant", "two-room"))["domain_sha256"]
+    )
 
 
 PARK = """
@@ -159,11 +206,14 @@ goal = "(at ?t ?r)"
 """
 
 
-@pytest.mark.parametrize("hops, deliver, chosen", [
-    (3, "{ b = 0.8, a = 0.2 }", "(at apple b)"),    # B, 3 cells away, in the region: 4 + 1.2 < 2 + 4.8
-    (3, "{ b = 0.2, a = 0.8 }", "myopic"),          # B rarely asked for: 4 + 4.8 > 2 + 1.2
-    (1, "{ b = 0.8, a = 0.2 }", "myopic"),          # B out of the region: never proposed
-])
+@pytest.mark.parametrize(
+    "hops, deliver, chosen",
+    [
+        (3, "{ b = 0.8, a = 0.2 }", "(at apple b)"),  # B, 3 cells away, in the region: 4 + 1.2 < 2 + 4.8
+        (3, "{ b = 0.2, a = 0.8 }", "myopic"),  # B rarely asked for: 4 + 4.8 > 2 + 1.2
+        (1, "{ b = 0.8, a = 0.2 }", "myopic"),  # B out of the region: never proposed
+    ],
+)
 def test_native_selection_takes_a_preparation_when_the_exact_c_ap_says_it_pays(tmp_path, hops, deliver, chosen):
     """The minimal grid with a [gnn.candidates] table: the robot at x1y0 holds the apple, task clear(c). The
     myopic plan puts it on A (one move and a place, 2); parking it on B costs 4. Scored with the exact C_AP
@@ -183,7 +233,7 @@ def test_native_selection_takes_a_preparation_when_the_exact_c_ap_says_it_pays(t
     r = agent.plan(state, task, [])
     assert r.info["chosen"] == chosen and r.info["c_myo"] == 2
     costs, hat = r.info["candidate_costs"], r.info["c_ap_hat"]
-    names = ["myopic", "(at apple a)"] + ([] if hops == 1 else ["(at apple b)"])      # A: the myopic end again
+    names = ["myopic", "(at apple a)"] + ([] if hops == 1 else ["(at apple b)"])  # A: the myopic end again
     assert len(costs) == len(names) and r.info["in_region"] == len(names) - 1 and r.info["dropped"] == 0
     assert costs[1] == costs[0] and hat[1] == hat[0]
     if hops == 3:
@@ -209,8 +259,9 @@ def test_the_candidate_cache_keys_on_the_domain_content_not_its_comments(tmp_pat
     with pytest.raises(DomainError, match="another domain or settings"):
         CandidateCache(compile_domain(folder, "grid"), cache, {"max_clauses": 5})
     text = toml.read_text()
-    assert text.count("probability = 0.0") == text.count("probability = 1.0") == 1     # clear(c), deliver
-    toml.write_text(text.replace("probability = 0.0", "probability = 0.25").replace("probability = 1.0",
-                                                                                    "probability = 0.75"))
+    assert text.count("probability = 0.0") == text.count("probability = 1.0") == 1  # clear(c), deliver
+    toml.write_text(
+        text.replace("probability = 0.0", "probability = 0.25").replace("probability = 1.0", "probability = 0.75")
+    )
     with pytest.raises(DomainError, match="another domain or settings"):
         CandidateCache(compile_domain(folder, "grid"), cache, settings)

@@ -1,4 +1,5 @@
 """The GNN dataset: states from myopic rollouts (and prepared ones), labelled with C_AP, saved and read back."""
+
 import json
 
 import pytest
@@ -66,7 +67,7 @@ def test_labelling_resumes_from_checkpoint(minimal, minimal_states, tmp_path):
     ck = tmp_path / "labels.partial.json"
     first = label_states(minimal_states[:2], cfg, ck, progress=False)
     saved = json.loads(ck.read_text())
-    saved["labels"][str(minimal_states[0])][0] = -7.0      # a marker: resumed, not recomputed
+    saved["labels"][str(minimal_states[0])][0] = -7.0  # a marker: resumed, not recomputed
     ck.write_text(json.dumps(saved))
     again = label_states(minimal_states[:3], cfg, ck, progress=False)
     assert again[minimal_states[0]][0] == -7.0 and again[minimal_states[1]] == first[minimal_states[1]]
@@ -83,10 +84,10 @@ def test_not_a_dataset_folder(tmp_path):
 def test_clause_library_is_derived_from_preconditions(three_room):
     lib = ClauseLibrary(three_room)
     texts = {lib.text(k) for k in range(len(lib))}
-    assert "(has-water jar_0)" in texts                                   # the jar filled
-    assert "(and (at jar_0 servingtable) (has-water jar_0))" in texts     # ... and parked where water is drawn
-    assert "(at water_machine coffeemachine)" in texts                    # the machine water restored
-    assert "(not (dirty cup_1))" in texts                                 # an object clean
+    assert "(has-water jar_0)" in texts  # the jar filled
+    assert "(and (at jar_0 servingtable) (has-water jar_0))" in texts  # ... and parked where water is drawn
+    assert "(at water_machine coffeemachine)" in texts  # the machine water restored
+    assert "(not (dirty cup_1))" in texts  # an object clean
     assert not any("robot-at" in t or "hand-free" in t or "holding" in t for t in texts)
 
 
@@ -99,10 +100,9 @@ def test_eligible_clauses_are_false_and_costly(three_room):
     hmax = HMax(three_room, bm)
     eligible = {lib.text(k) for k in lib.eligible(three_room.init, hmax, bm, 200)}
     assert "(has-water jar_0)" in eligible and "(not (dirty cup_1))" in eligible
-    assert "(at water_machine coffeemachine)" not in eligible             # true at the start
-    assert "(at cup_0 shelf)" not in eligible                              # pick undoes it: not a clause
-    assert "(dirty cup_0)" not in eligible                                 # wash undoes it: not a clause
-
+    assert "(at water_machine coffeemachine)" not in eligible  # true at the start
+    assert "(at cup_0 shelf)" not in eligible  # pick undoes it: not a clause
+    assert "(dirty cup_0)" not in eligible  # wash undoes it: not a clause
 
 
 def test_joint_goal(three_room):
@@ -121,20 +121,29 @@ def test_augmented_build_is_the_same_for_any_number_of_workers(minimal, tmp_path
 
     metas = []
     for workers in (1, 2):
-        cfg = DatasetConfig(layout="grid", domain="domains/minimal", n_states=6, augmented=True, n_prepared=10,
-                            workers=workers, heuristic="hmax", min_clause_cost=1, prepared_streams=3)
+        cfg = DatasetConfig(
+            layout="grid",
+            domain="domains/minimal",
+            n_states=6,
+            augmented=True,
+            n_prepared=10,
+            workers=workers,
+            heuristic="hmax",
+            min_clause_cost=1,
+            prepared_streams=3,
+        )
         build(cfg, tmp_path / str(workers), progress=False)
         metas.append(json.loads((tmp_path / str(workers) / "meta.json").read_text()))
     one, two = metas
     assert one["kinds"] == ["faithful"] * 6 + ["prepared"] * 10
     assert one["atoms"] == two["atoms"] and one["c_ap"] == two["c_ap"]
-    assert len({tuple(a) for a in one["atoms"]}) == 16                    # distinct states
+    assert len({tuple(a) for a in one["atoms"]}) == 16  # distinct states
     lab = Labeller(minimal, "hmax")
     for atoms, c_ap in list(zip(one["atoms"], one["c_ap"]))[6:9]:
         assert c_ap == pytest.approx(lab.label(minimal.state_from_atoms(atoms)).c_ap)
     rows = [json.loads((tmp_path / "1" / f"prepared-rollout-{i}.json").read_text()) for i in range(3)]
     assert [r["seed"] for r in rows] == [1, 2, 3]
-    assert any(t["clause"] for r in rows for t in r["tasks"])              # tasks planned with a clause
+    assert any(t["clause"] for r in rows for t in r["tasks"])  # tasks planned with a clause
 
 
 class _CreatesFile:

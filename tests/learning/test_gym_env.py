@@ -1,4 +1,5 @@
 """The Gymnasium environment: API conformance, masks, rewards, abandonment, determinism, registration."""
+
 import shutil
 import warnings
 
@@ -18,7 +19,7 @@ def make(env_id="AnticipatoryMinimal-grid-v0", **kw):
 @pytest.mark.parametrize("env_id", ["AnticipatoryMinimal-grid-v0", "AnticipatoryRestaurant-two-room-v0"])
 def test_check_env_passes(env_id):
     with warnings.catch_warnings():
-        warnings.simplefilter("error")          # no warning either
+        warnings.simplefilter("error")  # no warning either
         check_env(gym.make(env_id).unwrapped)
 
 
@@ -29,8 +30,16 @@ def test_check_env_passes_for_the_options(kw):
 
 def test_ids_are_registered_for_every_bundled_layout():
     ids = register_envs()
-    assert {"AnticipatoryRestaurant-two-room-v0", "AnticipatoryRestaurant-three-room-v0",
-            "AnticipatoryMinimal-grid-v0", "Anticipatory-v0"} <= set(ids) <= set(gym.registry)
+    assert (
+        {
+            "AnticipatoryRestaurant-two-room-v0",
+            "AnticipatoryRestaurant-three-room-v0",
+            "AnticipatoryMinimal-grid-v0",
+            "Anticipatory-v0",
+        }
+        <= set(ids)
+        <= set(gym.registry)
+    )
 
 
 def test_any_domain_folder_by_path(tmp_path):
@@ -85,7 +94,7 @@ def test_factored_heads_masks_and_actions():
         assert np.array_equal(info["action_mask"], np.concatenate(info["head_masks"]))
         a = int(rng.choice(applicable))
         before = env.state
-        obs, _, term, trunc, info = env.step(env.labels[a])        # the ground action's label
+        obs, _, term, trunc, info = env.step(env.labels[a])  # the ground action's label
         assert not info["invalid"]
         assert env.state == env.model.apply(before, a) or info["completed"] or info["finished"]
         if term or trunc:
@@ -98,7 +107,7 @@ def test_reward_of_known_steps():
     a = int(np.flatnonzero(info["action_mask"])[0])
     cost = env.model.action_cost[a]
     _, r, _, _, info = env.step(a)
-    assert not info["completed"] and r == pytest.approx(-cost / 100)          # cost_scale 100
+    assert not info["completed"] and r == pytest.approx(-cost / 100)  # cost_scale 100
     assert info["task_cost"] == cost and info["task_actions"] == 1
     # The minimal grid: clear(c) by the optimal plan; its last action earns -1 + 10.
     from planning.domain.batched import BatchedModel
@@ -110,10 +119,14 @@ def test_reward_of_known_steps():
     rewards = [env.step(a)[1:] for a in plan]
     assert [r for r, *_ in rewards[:-1]] == [-1.0] * (len(plan) - 1)
     r, term, trunc, info = rewards[-1]
-    assert info["completed"] and info["finished"] == {"task": "clear(c)", "cost": len(plan),
-                                                      "actions": len(plan), "success": True}
+    assert info["completed"] and info["finished"] == {
+        "task": "clear(c)",
+        "cost": len(plan),
+        "actions": len(plan),
+        "success": True,
+    }
     assert r == step_reward(1, True, 1.0, 10.0) + 10.0 * len(info["auto_completed"])
-    assert term == bool(info["auto_completed"])       # a delivery already done ends the 2-task episode
+    assert term == bool(info["auto_completed"])  # a delivery already done ends the 2-task episode
 
 
 def test_invalid_action_is_a_penalised_no_op():
@@ -133,7 +146,7 @@ def moves_only(env):
 
 @pytest.mark.parametrize("horizon", ["anticipatory", "myopic"])
 def test_a_task_is_abandoned_after_64_actions(horizon):
-    env = make(horizon=horizon)                         # minimal grid: moving never clears C
+    env = make(horizon=horizon)  # minimal grid: moving never clears C
     obs, info = env.reset(seed=0)
     for k in range(64):
         obs, r, term, trunc, info = env.step(moves_only(env))
@@ -142,13 +155,13 @@ def test_a_task_is_abandoned_after_64_actions(horizon):
     assert info["abandoned"] and not info["completed"]
     assert info["finished"] == {"task": "clear(c)", "cost": 64, "actions": 64, "success": False}
     if horizon == "myopic":
-        assert trunc and not term                       # each task its own episode
+        assert trunc and not term  # each task its own episode
     else:
-        assert not (term or trunc) and info["task"].startswith("deliver(")   # the episode goes on
+        assert not (term or trunc) and info["task"].startswith("deliver(")  # the episode goes on
         assert info["task_actions"] == 0 and info["tasks_done"] == 1
         for _ in range(64):
             obs, r, term, trunc, info = env.step(moves_only(env))
-        assert info["abandoned"] and term and not trunc   # the 2-task episode ends, terminal by domain.toml
+        assert info["abandoned"] and term and not trunc  # the 2-task episode ends, terminal by domain.toml
 
 
 def test_invalid_actions_count_toward_the_budget():
@@ -166,7 +179,7 @@ def test_block_end_truncates_in_the_restaurant():
     bad = int(np.flatnonzero(info["action_mask"] == 0)[0])
     ends = []
     for _ in range(200):
-        obs, r, term, trunc, info = env.step(bad)      # the world never changes: bad stays invalid
+        obs, r, term, trunc, info = env.step(bad)  # the world never changes: bad stays invalid
         if term or trunc:
             ends.append((term, trunc, info["tasks_done"]))
             break
@@ -177,7 +190,7 @@ def test_block_end_truncates_in_the_restaurant():
 def test_seeded_episodes_are_deterministic(kw):
     def trace(seed):
         env = make("AnticipatoryRestaurant-two-room-v0", **kw)
-        rng = np.random.default_rng(7)              # the agent's choices: the same in every run
+        rng = np.random.default_rng(7)  # the agent's choices: the same in every run
         out = []
         obs, info = env.reset(seed=seed)
         for _ in range(200):
@@ -202,8 +215,21 @@ def test_maskable_ppo_example_runs(tmp_path, monkeypatch):
     import sys
 
     out = tmp_path / "ppo.json"
-    monkeypatch.setattr(sys, "argv", ["maskable_ppo_minimal.py", "--steps", "256", "--episodes", "3",
-                                      "--horizons", "anticipatory", "--out", str(out)])
+    monkeypatch.setattr(
+        sys,
+        "argv",
+        [
+            "maskable_ppo_minimal.py",
+            "--steps",
+            "256",
+            "--episodes",
+            "3",
+            "--horizons",
+            "anticipatory",
+            "--out",
+            str(out),
+        ],
+    )
     runpy.run_path(str(ROOT / "examples" / "maskable_ppo_minimal.py"), run_name="__main__")
     r = json.loads(out.read_text())["anticipatory"]
     assert sum(r["sampled"][k] for k in ("a", "b", "other", "abandoned")) == 3

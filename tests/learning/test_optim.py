@@ -1,4 +1,5 @@
 """FlatAdam: the same steps as torch's per-parameter Adam with clipping, and checkpoints in its format."""
+
 import torch
 from torch import nn
 
@@ -13,7 +14,7 @@ def _net(seed=0):
 def _loss(net, x):
     # the last layer is left out of the loss half the time: its parameters must still step (zero grad)
     h = net[3](net[2](net[1](net[0](x))))
-    return (h ** 2).sum() if x.shape[0] % 2 else (net[4](h) ** 3).sum()
+    return (h**2).sum() if x.shape[0] % 2 else (net[4](h) ** 3).sum()
 
 
 def _reference_step(net, opt, x, clip):
@@ -33,7 +34,7 @@ def test_flat_adam_steps_as_torch_adam_per_parameter():
     gen = torch.Generator().manual_seed(1)
     for k in range(30):
         x = torch.randn(4 + k % 2, 7, generator=gen)
-        _reference_step(a, ref, x, clip=0.5)        # clipping active: the norms are well above 0.5
+        _reference_step(a, ref, x, clip=0.5)  # clipping active: the norms are well above 0.5
         flat.zero_grad()
         _loss(b, x).backward()
         flat.step(0.5)
@@ -51,7 +52,7 @@ def test_flat_adam_steps_as_torch_adam_per_parameter():
     c = _net()
     resumed = FlatAdam(c.parameters(), lr=1e-2)
     resumed.load_state_dict(ref_sd)
-    c.load_state_dict(a.state_dict())                 # in place: into the flat buffer
+    c.load_state_dict(a.state_dict())  # in place: into the flat buffer
     ref2 = torch.optim.Adam(a.parameters(), lr=1e-2, fused=True)
     ref2.load_state_dict(flat_sd)
     x = torch.randn(5, 7, generator=gen)

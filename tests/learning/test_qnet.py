@@ -1,4 +1,5 @@
 """The factored Q-network: mask-centring, exact argmax, Bellman targets on hand-made transitions, checkpoints."""
+
 import itertools
 
 import numpy as np
@@ -37,8 +38,8 @@ def reference_q(net, enc, state: int, task: int) -> dict:
         v = float(net.value(torch.relu(parts[:H]))[0])
 
         def adv(d, prefix):
-            z = parts[(d + 1) * H:(d + 2) * H]
-            for k, c in enumerate(prefix):      # one learned table per earlier component
+            z = parts[(d + 1) * H : (d + 2) * H]
+            for k, c in enumerate(prefix):  # one learned table per earlier component
                 z = z + net.prefix_tables[d - 1][k](torch.tensor(c))
             return net.out[d](torch.relu(z)).numpy()
 
@@ -46,7 +47,7 @@ def reference_q(net, enc, state: int, task: int) -> dict:
         for t, a in tuples.items():
             q = v
             for d in range(len(t)):
-                values = {u[d] for u in tuples if u[:d] == t[:d]}   # valid values of head d given the prefix
+                values = {u[d] for u in tuples if u[:d] == t[:d]}  # valid values of head d given the prefix
                 A = adv(d, t[:d])
                 q += A[t[d]] - np.mean([A[x] for x in values])
             out[a] = q
@@ -95,9 +96,14 @@ def test_centring_removes_any_per_head_offset(two_room, enc, net):
 
 def test_auto_is_the_only_valid_action_of_a_satisfied_task(minimal):
     enc = Encoding(minimal)
-    s = minimal.state_from_atoms(["(robot-at b)", "(hand-free)", "(at apple b)"] +
-                                 [a for a in ["(receptacle a)", "(receptacle b)", "(receptacle c)"]
-                                  if a.strip("()").split()[0] in {x[0] for x in minimal.atoms}])
+    s = minimal.state_from_atoms(
+        ["(robot-at b)", "(hand-free)", "(at apple b)"]
+        + [
+            a
+            for a in ["(receptacle a)", "(receptacle b)", "(receptacle c)"]
+            if a.strip("()").split()[0] in {x[0] for x in minimal.atoms}
+        ]
+    )
     task = minimal.tasks.get("deliver(b)").index
     valid = enc.valid_for(enc.pack([s]), [task])[0]
     assert np.flatnonzero(valid).tolist() == [enc.AUTO]
@@ -114,7 +120,7 @@ class TableNet(torch.nn.Module):
         self.enc, self.base, self.slope = enc, torch.tensor(base, dtype=torch.float32), slope
 
     def forward(self, obs, valid):
-        feat = obs[:, self.enc.n_atoms:].numpy()
+        feat = obs[:, self.enc.n_atoms :].numpy()
         task = torch.tensor([int(np.flatnonzero((self.enc.task_feat == f).all(1))[0]) for f in feat])
         q = self.base[task][:, None] + self.slope * torch.arange(valid.shape[1], dtype=torch.float32)[None]
         return q.masked_fill(~valid, float("-inf"))
@@ -122,30 +128,33 @@ class TableNet(torch.nn.Module):
 
 def test_targets_on_hand_made_transitions(two_room, enc):
     T = len(two_room.tasks)
-    online = TableNet(enc, np.zeros(T), slope=1.0)          # picks the highest-index valid action
+    online = TableNet(enc, np.zeros(T), slope=1.0)  # picks the highest-index valid action
     target = TableNet(enc, np.arange(T) * 10.0, slope=-1.0)  # values it differently
     s = two_room.random_walk_states(1, seed=7)[0]
     packed = enc.pack([s])
     gamma, task = 0.9, 2
-    batch = {"next_states": np.repeat(packed, 3, axis=0), "tasks": np.array([task, task, task]),
-             "rewards": np.array([-1.0, 80.0, 5.0], dtype=np.float32),
-             "kinds": np.array([CONTINUE, COMPLETE, TERMINAL], dtype=np.int8)}
+    batch = {
+        "next_states": np.repeat(packed, 3, axis=0),
+        "tasks": np.array([task, task, task]),
+        "rewards": np.array([-1.0, 80.0, 5.0], dtype=np.float32),
+        "kinds": np.array([CONTINUE, COMPLETE, TERMINAL], dtype=np.int8),
+    }
 
-    def q_target(t):   # Q_target(s', t, argmax_a Q_online(s', t, a))
+    def q_target(t):  # Q_target(s', t, argmax_a Q_online(s', t, a))
         valid = enc.valid_for(packed, [t])[0]
         a = int(np.flatnonzero(valid).max())
         return 10.0 * t - a
 
     myo = td_targets(online, target, enc, batch, gamma, "myopic").numpy()
-    assert myo[0] == pytest.approx(-1.0 + gamma * q_target(task))     # timeout / within task: same task
-    assert myo[1] == pytest.approx(80.0)                               # myopic completion: y = r
+    assert myo[0] == pytest.approx(-1.0 + gamma * q_target(task))  # timeout / within task: same task
+    assert myo[1] == pytest.approx(80.0)  # myopic completion: y = r
     assert myo[2] == pytest.approx(5.0)
     ant = td_targets(online, target, enc, batch, gamma, "anticipatory").numpy()
     p = two_room.tasks.probabilities / two_room.tasks.probabilities.sum()
     v_ap = sum(p[t] * q_target(t) for t in range(T))
     assert ant[0] == pytest.approx(myo[0])
-    assert ant[1] == pytest.approx(80.0 + gamma * v_ap, rel=1e-5)    # r + γ Σ P(τ') Q_target(s', τ', argmax online)
-    assert ant[2] == pytest.approx(5.0)                                # a declared terminal stays terminal
+    assert ant[1] == pytest.approx(80.0 + gamma * v_ap, rel=1e-5)  # r + γ Σ P(τ') Q_target(s', τ', argmax online)
+    assert ant[2] == pytest.approx(5.0)  # a declared terminal stays terminal
 
 
 def test_checkpoint_round_trip_and_bad_files(two_room, three_room, enc, net, tmp_path):
@@ -165,7 +174,7 @@ def test_checkpoint_round_trip_and_bad_files(two_room, three_room, enc, net, tmp
         load_value_function(tmp_path / "bad.pt", two_room)
     with pytest.raises(DomainError, match="trained for restaurant/two-room"):
         load_value_function(path, three_room)
-    assert not list(tmp_path.glob(".*tmp"))      # the atomic write left no temporary behind
+    assert not list(tmp_path.glob(".*tmp"))  # the atomic write left no temporary behind
 
 
 def test_brute_force_argmax_over_all_label_tuples(minimal):
@@ -199,6 +208,7 @@ def test_numpy_inference_matches_the_network(two_room, enc, net):
     got = NumpyQ(net)(obs, valid)
     assert np.allclose(got[valid], expect[valid], atol=1e-4) and np.isneginf(got[~valid]).all()
     from learning.q.value import ValueFunction
+
     assert np.allclose(ValueFunction(net, enc).v_ap(states), preparedness(net, net, enc, packed), atol=1e-4)
 
 
@@ -217,18 +227,21 @@ def test_boundary_cache_is_exact_and_spares_the_target_net(two_room, enc):
     online = TableNet(enc, np.zeros(T), slope=1.0)
     target = CountingNet(enc, np.arange(T) * 10.0, slope=-1.0)
     states = enc.pack(two_room.random_walk_states(3, seed=11))
-    batch = {"next_states": np.concatenate([states, states[:1]]), "tasks": np.array([1, 2, 3, 4]),
-             "rewards": np.array([-1.0, 50.0, 60.0, 50.0], dtype=np.float32),
-             "kinds": np.array([CONTINUE, COMPLETE, COMPLETE, COMPLETE], dtype=np.int8)}
+    batch = {
+        "next_states": np.concatenate([states, states[:1]]),
+        "tasks": np.array([1, 2, 3, 4]),
+        "rewards": np.array([-1.0, 50.0, 60.0, 50.0], dtype=np.float32),
+        "kinds": np.array([CONTINUE, COMPLETE, COMPLETE, COMPLETE], dtype=np.int8),
+    }
     plain = td_targets(online, target, enc, batch, 0.97, "anticipatory").numpy()
     cache = BoundaryCache()
     first = td_targets(online, target, enc, batch, 0.97, "anticipatory", cache).numpy()
     np.testing.assert_allclose(first, plain, rtol=1e-6)
-    assert len(cache) == 3                                   # one entry per distinct completion state
+    assert len(cache) == 3  # one entry per distinct completion state
     target.rows = 0
     again = td_targets(online, target, enc, batch, 0.97, "anticipatory", cache).numpy()
     np.testing.assert_allclose(again, plain, rtol=1e-6)
-    assert target.rows == 1                                  # only the within-task row reaches the target net
+    assert target.rows == 1  # only the within-task row reaches the target net
     # the trainer clears the cache when the target network is synced
     target.base = target.base + 5.0
     cache.clear()
@@ -239,6 +252,7 @@ def test_boundary_cache_is_exact_and_spares_the_target_net(two_room, enc):
 def _torch_q_max(net, enc, packed, tasks):
     """max over the valid actions of the plain torch forward, per (state, task) row."""
     from learning.q.network import masked_max
+
     obs, valid = enc.observe(packed, tasks), enc.valid_for(packed, tasks)
     with torch.no_grad():
         q = net(torch.from_numpy(obs), torch.from_numpy(valid))
@@ -254,12 +268,13 @@ def test_batched_q_max_and_v_ap_match_the_torch_forward(layout, weights, request
     from learning.q.inference import BatchedQ
     from learning.q.targets import _pairs
     from learning.q.value import ValueFunction
+
     model = request.getfixturevalue(layout)
     enc = Encoding(model)
     if weights == "random":
         torch.manual_seed(7)
         net = build_network(enc).eval()
-    else:     # the large values of a trained network (two-room V reaches ~240) test float32 rounding
+    else:  # the large values of a trained network (two-room V reaches ~240) test float32 rounding
         ckpt = Path(f"checkpoints/rl-anticipatory-{layout.replace('_', '-')}-seed0.pt")
         if not ckpt.is_file():
             pytest.skip(f"no {ckpt}")
@@ -271,12 +286,12 @@ def test_batched_q_max_and_v_ap_match_the_torch_forward(layout, weights, request
     b = vf.batched
     a = np.maximum(b.features(states) @ b.l1_base, 0)
     app = np.zeros((len(states), enc.n_actions), dtype=bool)
-    rows, var = np.nonzero(a[:, b.t0:b.g0])
+    rows, var = np.nonzero(a[:, b.t0 : b.g0])
     app[rows, enc.bm.op_action[var]] = True
-    assert set(np.unique(a[:, b.t0:])) <= {0.0, 1.0}
+    assert set(np.unique(a[:, b.t0 :])) <= {0.0, 1.0}
     assert np.array_equal(app, enc.applicable(packed))
     sat = enc.satisfied_all(packed)
-    assert np.array_equal((a[:, b.g0:] @ b.goal_of) > 0, sat)
+    assert np.array_equal((a[:, b.g0 :] @ b.goal_of) > 0, sat)
     # q_max for a few tasks, among them one some of the states already satisfy (AUTO alone is valid)
     T = len(model.tasks)
     tasks = sorted({0, T // 2, T - 1, int(np.flatnonzero(sat.any(0))[0])})
@@ -286,15 +301,16 @@ def test_batched_q_max_and_v_ap_match_the_torch_forward(layout, weights, request
         got = vf.q_max(states, t)
         assert got.shape == (len(states),)
         np.testing.assert_allclose(got, expect, rtol=0, atol=1e-4)
-        np.testing.assert_allclose(vf.q_max(packed, model.tasks[t]), got, rtol=0, atol=1e-5)   # packed input
+        np.testing.assert_allclose(vf.q_max(packed, model.tasks[t]), got, rtol=0, atol=1e-5)  # packed input
     # V_AP: the support-weighted max over every (state, task) pair
     obs, valid = _pairs(enc, packed)
     with torch.no_grad():
         from learning.q.network import masked_max
+
         qm = masked_max(net(torch.from_numpy(obs), torch.from_numpy(valid)), torch.from_numpy(valid))[0]
     expect = qm.double().numpy().reshape(len(states), len(enc.support)) @ enc.task_prob[enc.support]
     np.testing.assert_allclose(vf.v_ap(states), expect, rtol=0, atol=1e-4)
-    small = BatchedQ(net, enc, chunk=7)            # V_AP's pairs in several chunks: the same numbers
+    small = BatchedQ(net, enc, chunk=7)  # V_AP's pairs in several chunks: the same numbers
     np.testing.assert_allclose(small.v_ap(states[:9]), vf.v_ap(states[:9]), rtol=0, atol=1e-5)
     assert vf.q_max([], 0).shape == (0,) and vf.v_ap([]).shape == (0,)
 
@@ -316,7 +332,7 @@ def reference_forward(net, obs, valid):
         used[flat] = True
         keys = used.nonzero()[:, 0]
         inv = (torch.cumsum(used, 0) - 1)[flat]
-        z = parts[keys // P, (d + 1) * H:(d + 2) * H]
+        z = parts[keys // P, (d + 1) * H : (d + 2) * H]
         if d:
             z = z + net.prefix_term(d)[keys % P]
         adv = net.out[d](torch.relu(z))
@@ -343,6 +359,7 @@ def reference_td_targets(online, target, enc, batch, gamma, horizon):
     pairs with the whole support through both networks, observations built in full."""
     from learning.q.network import masked_max
     from learning.q.targets import _pairs
+
     y = torch.as_tensor(batch["rewards"], dtype=torch.float32).clone()
     kinds, nxt = np.asarray(batch["kinds"]), batch["next_states"]
     cont = np.flatnonzero(kinds == CONTINUE)
@@ -383,17 +400,23 @@ def fixed_minibatch(model, enc, n, seed):
     rng = np.random.default_rng(seed)
     states = enc.pack(model.random_walk_states(n + 1, seed=seed))
     nxt = states[1:].copy()
-    nxt[n // 2:n // 2 + 6] = nxt[n // 2]                            # one completion state six times
+    nxt[n // 2 : n // 2 + 6] = nxt[n // 2]  # one completion state six times
     kinds = rng.choice([CONTINUE, COMPLETE, TERMINAL], size=n, p=[0.7, 0.2, 0.1]).astype(np.int8)
-    kinds[n // 2:n // 2 + 6] = COMPLETE
+    kinds[n // 2 : n // 2 + 6] = COMPLETE
     tasks = rng.integers(len(model.tasks), size=n)
-    holds = enc.satisfied_all(states[:-1])                          # some rows' task already holds: AUTO
+    holds = enc.satisfied_all(states[:-1])  # some rows' task already holds: AUTO
     for i in np.flatnonzero(holds.any(1))[:8]:
         tasks[i] = int(np.flatnonzero(holds[i])[0])
     valid = enc.valid_for(states[:-1], tasks)
     actions = np.array([rng.choice(np.flatnonzero(v)) for v in valid])
-    return {"states": states[:-1], "next_states": nxt, "tasks": tasks, "actions": actions,
-            "rewards": rng.normal(0.0, 3.0, size=n).astype(np.float32), "kinds": kinds}
+    return {
+        "states": states[:-1],
+        "next_states": nxt,
+        "tasks": tasks,
+        "actions": actions,
+        "rewards": rng.normal(0.0, 3.0, size=n).astype(np.float32),
+        "kinds": kinds,
+    }
 
 
 def test_dense_heads_give_the_reference_q_and_gradients(restaurant):
@@ -401,22 +424,28 @@ def test_dense_heads_give_the_reference_q_and_gradients(restaurant):
     enc = Encoding(restaurant)
     net = trained_like(enc, 0)
     b = fixed_minibatch(restaurant, enc, 160, seed=1)
-    obs, valid = torch.from_numpy(enc.observe(b["states"], b["tasks"])), torch.from_numpy(enc.valid_for(b["states"], b["tasks"]))
+    obs, valid = (
+        torch.from_numpy(enc.observe(b["states"], b["tasks"])),
+        torch.from_numpy(enc.valid_for(b["states"], b["tasks"])),
+    )
     acts = torch.from_numpy(b["actions"])
     grads = []
-    for q in (lambda: reference_forward(net, obs, valid), lambda: net(obs, valid),
-              lambda: net.q_taken(obs, valid, acts)[:, None]):
+    for q in (
+        lambda: reference_forward(net, obs, valid),
+        lambda: net(obs, valid),
+        lambda: net.q_taken(obs, valid, acts)[:, None],
+    ):
         net.zero_grad(set_to_none=True)
         out = q()
         taken = out.gather(1, acts[:, None]) if out.shape[1] > 1 else out
-        (taken ** 2).mean().backward()
+        (taken**2).mean().backward()
         grads.append({k: p.grad if p.grad is not None else torch.zeros_like(p) for k, p in net.named_parameters()})
         if out.shape[1] > 1:
             grads[-1]["q"] = out.detach()
     ref, new, taken = grads
     assert torch.equal(torch.isinf(ref["q"]), torch.isinf(new["q"])) and torch.isinf(ref["q"]).sum() > 0
     fin = torch.isfinite(ref["q"])
-    assert ref["q"][fin].abs().max() > 1.0                                     # the heads are not trivial
+    assert ref["q"][fin].abs().max() > 1.0  # the heads are not trivial
     torch.testing.assert_close(new["q"][fin], ref["q"][fin], rtol=1e-5, atol=1e-5)
     for g in (new, taken):
         for k, _ in net.named_parameters():
@@ -432,8 +461,13 @@ def test_split_first_layer_gives_the_same_q(two_room, enc):
     valid = torch.from_numpy(enc.valid_for(states[rows], tasks))
     with torch.no_grad():
         plain = net(torch.from_numpy(enc.observe(states[rows], tasks)), valid)
-        split = net.forward_pairs(torch.from_numpy(enc.bm.to_bits(states).astype(np.float32)),
-                                  torch.from_numpy(enc.task_feat), torch.from_numpy(rows), torch.from_numpy(tasks), valid)
+        split = net.forward_pairs(
+            torch.from_numpy(enc.bm.to_bits(states).astype(np.float32)),
+            torch.from_numpy(enc.task_feat),
+            torch.from_numpy(rows),
+            torch.from_numpy(tasks),
+            valid,
+        )
     assert torch.equal(torch.isinf(plain), torch.isinf(split))
     torch.testing.assert_close(split[valid], plain[valid], rtol=1e-5, atol=1e-5)
 
@@ -443,22 +477,34 @@ def test_faster_update_gives_the_reference_targets_and_gradients(two_room, enc, 
     """On a fixed minibatch: the same Double-DQN targets as the previous code (with and without the
     boundary cache, from a cold and a warm cache) and the same gradient of the Huber loss."""
     import torch.nn.functional as F
+
     online, target = trained_like(enc, 2), trained_like(enc, 3)
     b = fixed_minibatch(two_room, enc, 128, seed=5)
-    assert (b["kinds"] == COMPLETE).sum() >= 6 and len(np.unique(b["next_states"][b["kinds"] == COMPLETE], axis=0)) < (b["kinds"] == COMPLETE).sum()
+    assert (b["kinds"] == COMPLETE).sum() >= 6 and len(np.unique(b["next_states"][b["kinds"] == COMPLETE], axis=0)) < (
+        b["kinds"] == COMPLETE
+    ).sum()
     ref = reference_td_targets(ReferenceNet(online), ReferenceNet(target), enc, b, 0.97, horizon)
     cache = BoundaryCache()
-    for y in (td_targets(online, target, enc, b, 0.97, horizon),
-              td_targets(online, target, enc, b, 0.97, horizon, cache),
-              td_targets(online, target, enc, b, 0.97, horizon, cache)):       # the cache's values
+    for y in (
+        td_targets(online, target, enc, b, 0.97, horizon),
+        td_targets(online, target, enc, b, 0.97, horizon, cache),
+        td_targets(online, target, enc, b, 0.97, horizon, cache),
+    ):  # the cache's values
         torch.testing.assert_close(y, ref, rtol=1e-5, atol=1e-4)
-    assert len(cache) == (0 if horizon == "myopic" else len(np.unique(b["next_states"][b["kinds"] == COMPLETE], axis=0)))
-    assert not torch.allclose(ref, torch.as_tensor(b["rewards"]))               # the bootstrap matters
-    obs, valid = torch.from_numpy(enc.observe(b["states"], b["tasks"])), torch.from_numpy(enc.valid_for(b["states"], b["tasks"]))
+    assert len(cache) == (
+        0 if horizon == "myopic" else len(np.unique(b["next_states"][b["kinds"] == COMPLETE], axis=0))
+    )
+    assert not torch.allclose(ref, torch.as_tensor(b["rewards"]))  # the bootstrap matters
+    obs, valid = (
+        torch.from_numpy(enc.observe(b["states"], b["tasks"])),
+        torch.from_numpy(enc.valid_for(b["states"], b["tasks"])),
+    )
     acts = torch.from_numpy(b["actions"])
     grads = []
-    for q, y in ((lambda: reference_forward(online, obs, valid).gather(1, acts[:, None])[:, 0], ref),
-                 (lambda: online.q_taken(obs, valid, acts), td_targets(online, target, enc, b, 0.97, horizon, cache))):
+    for q, y in (
+        (lambda: reference_forward(online, obs, valid).gather(1, acts[:, None])[:, 0], ref),
+        (lambda: online.q_taken(obs, valid, acts), td_targets(online, target, enc, b, 0.97, horizon, cache)),
+    ):
         online.zero_grad(set_to_none=True)
         F.smooth_l1_loss(q(), y).backward()
         grads.append({k: p.grad if p.grad is not None else torch.zeros_like(p) for k, p in online.named_parameters()})
@@ -476,6 +522,7 @@ def test_committed_checkpoints_act_as_before(path):
     kernels' summation order) is relative to a row's largest value, so the values agree to 1e-4 of it and the
     actions wherever their gap exceeds that (a diverged network's values reach 1e10)."""
     from planning.domain.compiler import compile_domain
+
     layout = "three-room" if "three-room" in path else "two-room"
     model = compile_domain("domains/restaurant", layout)
     vf = load_value_function(path, model)
@@ -500,6 +547,7 @@ def test_live_greedy_acts_as_the_forward_and_follows_the_weights(restaurant):
     """The trainer's numpy acting: the forward's argmax, also after the weights change in place."""
     from learning.q.inference import LiveGreedy
     from learning.q.network import masked_max
+
     enc = Encoding(restaurant)
     net = trained_like(enc, 4)
     greedy = LiveGreedy(net)
@@ -513,7 +561,7 @@ def test_live_greedy_acts_as_the_forward_and_follows_the_weights(restaurant):
         with torch.no_grad():
             expect = masked_max(net(torch.from_numpy(obs), torch.from_numpy(valid)), torch.from_numpy(valid))[1]
         assert [greedy(o, v) for o, v in zip(obs, valid)] == expect.tolist()
-        with torch.no_grad():                          # an optimizer step changes the weights in place
+        with torch.no_grad():  # an optimizer step changes the weights in place
             for p in net.parameters():
                 p.add_(0.2 * torch.randn_like(p))
 
@@ -523,17 +571,20 @@ def test_slot_cache_gives_the_same_targets_and_observations(two_room, enc):
     afresh, after slots are rewritten and after the target network changes (a sync)."""
     from learning.q.replay import Replay, mixed_batch
     from learning.q.targets import SlotCache
+
     online, target = trained_like(enc, 6), trained_like(enc, 7)
     agent, demos = Replay(40, enc.n_words), Replay(30, enc.n_words)
-    fill = lambda memory, n, seed: [memory.add(b["states"][i], b["tasks"][i], b["actions"][i], b["rewards"][i],
-                                               b["next_states"][i], b["kinds"][i])
-                                    for b in [fixed_minibatch(two_room, enc, n, seed)] for i in range(n)]
+    fill = lambda memory, n, seed: [
+        memory.add(b["states"][i], b["tasks"][i], b["actions"][i], b["rewards"][i], b["next_states"][i], b["kinds"][i])
+        for b in [fixed_minibatch(two_room, enc, n, seed)]
+        for i in range(n)
+    ]
     fill(demos, 30, 10)
     fill(agent, 40, 11)
     slots, rng = SlotCache(enc, demos.capacity + agent.capacity, online.mask_bits), np.random.default_rng(0)
     for round_ in range(4):
         if round_ == 2:
-            fill(agent, 25, 12)                          # rewritten slots: new transitions there
+            fill(agent, 25, 12)  # rewritten slots: new transitions there
         if round_ == 3:
             with torch.no_grad():
                 for p in target.parameters():
@@ -542,9 +593,10 @@ def test_slot_cache_gives_the_same_targets_and_observations(two_room, enc):
         for _ in range(3):
             b = mixed_batch(agent, demos, 64, 0.25, rng)
             expect = td_targets(online, target, enc, b, 0.97, "anticipatory")
-            torch.testing.assert_close(td_targets(online, target, enc, b, 0.97, "anticipatory", None, slots),
-                                       expect, rtol=1e-5, atol=1e-4)
-            again = td_targets(online, target, enc, b, 0.97, "anticipatory", None, slots)   # all known: no target rows
+            torch.testing.assert_close(
+                td_targets(online, target, enc, b, 0.97, "anticipatory", None, slots), expect, rtol=1e-5, atol=1e-4
+            )
+            again = td_targets(online, target, enc, b, 0.97, "anticipatory", None, slots)  # all known: no target rows
             torch.testing.assert_close(again, expect, rtol=1e-5, atol=1e-4)
             obs, valid, mask_bits = slots.observe(b)
             assert np.array_equal(obs, enc.observe(b["states"], b["tasks"]))
@@ -559,6 +611,7 @@ def test_empty_batches_and_no_row_to_value(two_room, enc):
     """No rows at all, and (with both caches warm) no row for the target network: the same targets."""
     from learning.q.replay import Replay, mixed_batch
     from learning.q.targets import SlotCache
+
     net = trained_like(enc, 9)
     valid = torch.from_numpy(enc.valid_for(enc.pack(two_room.random_walk_states(1, seed=2)), [0]))[:0]
     assert net(torch.zeros(0, enc.obs_dim), valid).shape == (0, enc.n_actions)
@@ -576,18 +629,21 @@ def test_compact_checkpoint_acts_as_the_full_one(three_room, tmp_path):
     """learning.export's float16 checkpoint: about half the bytes, loaded safely, the same greedy actions."""
     from learning.export import compact
     from learning.q.checkpoints import read_checkpoint, save_checkpoint
-    payload = read_checkpoint("checkpoints/rl-anticipatory-three-room-seed0.pt")      # float32 once loaded
+
+    payload = read_checkpoint("checkpoints/rl-anticipatory-three-room-seed0.pt")  # float32 once loaded
     payload.pop("precision", None)
-    g = torch.Generator().manual_seed(0)                  # weights float16 cannot hold exactly, as a trainer's
-    payload["net"] = {k: v * (1 + 1e-3 * torch.randn(v.shape, generator=g)) if v.is_floating_point() else v
-                      for k, v in payload["net"].items()}
+    g = torch.Generator().manual_seed(0)  # weights float16 cannot hold exactly, as a trainer's
+    payload["net"] = {
+        k: v * (1 + 1e-3 * torch.randn(v.shape, generator=g)) if v.is_floating_point() else v
+        for k, v in payload["net"].items()
+    }
     full = save_checkpoint(tmp_path / "full.pt", payload)
     small = save_checkpoint(tmp_path / "small.pt", compact(read_checkpoint(full)))
     assert small.stat().st_size < 0.55 * full.stat().st_size
     payload = read_checkpoint(small)
     assert payload["precision"] == "float16" and all(v.dtype != torch.float16 for v in payload["net"].values())
     a, b = load_value_function(full, three_room), load_value_function(small, three_room)
-    assert not torch.equal(a.net.encoder[0].weight, b.net.encoder[0].weight)   # float16 rounding did happen
+    assert not torch.equal(a.net.encoder[0].weight, b.net.encoder[0].weight)  # float16 rounding did happen
     states = three_room.random_walk_states(300, seed=5)
     tasks = np.random.default_rng(1).integers(len(three_room.tasks), size=len(states))
     greedy = lambda vf: [int(vf.greedy([s], int(t))[0]) for s, t in zip(states, tasks)]
@@ -595,17 +651,25 @@ def test_compact_checkpoint_acts_as_the_full_one(three_room, tmp_path):
     np.testing.assert_allclose(b.v_ap(states[:20]), a.v_ap(states[:20]), rtol=2e-3)
 
 
-@pytest.mark.parametrize("path, precision", [("checkpoints/rl-anticipatory-three-room-seed0.pt", "float16"),
-                                             ("checkpoints/rl-myopic-three-room-seed4.pt", "float32")])
+@pytest.mark.parametrize(
+    "path, precision",
+    [
+        ("checkpoints/rl-anticipatory-three-room-seed0.pt", "float16"),
+        ("checkpoints/rl-myopic-three-room-seed4.pt", "float32"),
+    ],
+)
 def test_export_keeps_float32_where_float16_would_change_the_greedy_actions(path, precision):
     """A healthy network's float16 weights swap at most near-tied actions; the diverged three-room myopic
     seed-4 network's values (about 1e10) move by more than their gaps, so its export stays float32."""
     from learning.export import TIE, faithful_compact
     from learning.q.checkpoints import read_checkpoint
+
     payload = read_checkpoint(path)
-    g = torch.Generator().manual_seed(0)                  # weights float16 cannot hold exactly, as a trainer's
-    payload["net"] = {k: v * (1 + 1e-3 * torch.randn(v.shape, generator=g)) if v.is_floating_point() else v
-                      for k, v in payload["net"].items()}
+    g = torch.Generator().manual_seed(0)  # weights float16 cannot hold exactly, as a trainer's
+    payload["net"] = {
+        k: v * (1 + 1e-3 * torch.randn(v.shape, generator=g)) if v.is_floating_point() else v
+        for k, v in payload["net"].items()
+    }
     small, loss = faithful_compact(payload)
     assert small["precision"] == precision
     assert (loss < TIE) == (precision == "float16")
@@ -615,17 +679,29 @@ def test_export_keeps_float32_where_float16_would_change_the_greedy_actions(path
 def test_key_figures_of_a_run():
     """Milestones take the last row at or before them; the wall time sums each window's steps over its rate."""
     from learning.export import key_figures
-    logs = [{"step": s, "success_rate": s / 600_000, "selected_q": 10.0 + s / 1e4, "td_target": 9.0,
-             "action_share": {"refill-water": 0.01}, "steps_per_s": 100.0} for s in range(25_000, 275_000, 25_000)]
+
+    logs = [
+        {
+            "step": s,
+            "success_rate": s / 600_000,
+            "selected_q": 10.0 + s / 1e4,
+            "td_target": 9.0,
+            "action_share": {"refill-water": 0.01},
+            "steps_per_s": 100.0,
+        }
+        for s in range(25_000, 275_000, 25_000)
+    ]
     logs[3]["selected_q"] = -900.0
-    evals = [{"step": 50_000, "success_rate": 0.5, "task_return": 1.0, "demo_q_bias": 0.25},
-             {"step": 200_000, "success_rate": 0.9, "task_return": 2.0}]
+    evals = [
+        {"step": 50_000, "success_rate": 0.5, "task_return": 1.0, "demo_q_bias": 0.25},
+        {"step": 200_000, "success_rate": 0.9, "task_return": 2.0},
+    ]
     f = key_figures(logs, evals)
     assert set(f["at"]) == {"50000", "100000", "250000"}
     assert f["at"]["250000"]["step"] == 250_000 and f["at"]["100000"]["greedy"]["demo_q_bias"] == 0.25
     assert f["best_greedy"]["step"] == 200_000
     assert f["peak_selected_q"] == {"step": 100_000, "selected_q": -900.0}
-    assert f["peak_refill_share"] == {"step": 250_000, "share": 0.01}        # ties: the latest window
+    assert f["peak_refill_share"] == {"step": 250_000, "share": 0.01}  # ties: the latest window
     # the cumulative share since step 0: windows of 25k steps at 0.01, then one at 0.04
     logs[-1]["action_share"] = {"refill-water": 0.04}
     f = key_figures(logs, evals)
@@ -637,5 +713,10 @@ def test_key_figures_of_a_run():
     logs = [{**logs[0], "step": s, "selected_q": 1 / 3} for s in range(1_000, 12_001, 1_000)]
     f = key_figures(logs, evals)
     assert [r["step"] for r in f["curve"]] == [5_000, 10_000, 12_000]
-    assert f["curve"][0] == {"step": 5_000, "success_rate": 0.041667, "selected_q": 0.33333,
-                             "td_target": 9.0, "refill_share_cumulative": 0.01}
+    assert f["curve"][0] == {
+        "step": 5_000,
+        "success_rate": 0.041667,
+        "selected_q": 0.33333,
+        "td_target": 9.0,
+        "refill_share_cumulative": 0.01,
+    }

@@ -1,6 +1,7 @@
 """Training and export never lose or mix work: one resume path for learning.dqn and the
 sweeps, one trainer per run folder, an export that replaces only its own run's files and checks everything first,
 output names that stay in their folders, and checkpoints that name the domain they were trained on."""
+
 import json
 import os
 import shutil
@@ -23,8 +24,17 @@ MINIMAL = str(ROOT / "domains" / "minimal")
 COMMITTED = ROOT / "checkpoints" / "rl-myopic-two-room-seed0.pt"
 COMMITTED_FIGURES = ROOT / "results" / "training-myopic-two-room-seed0.json"
 # a few hundred steps of the grid, no demonstrations: seconds
-SMALL = {"steps": 300, "demo_tasks": 0, "learning_starts": 50, "log_every": 100, "eval_every": 10**9,
-         "eval_tasks": 4, "checkpoint_every": 10**9, "hidden": 32, "batch_size": 16}
+SMALL = {
+    "steps": 300,
+    "demo_tasks": 0,
+    "learning_starts": 50,
+    "log_every": 100,
+    "eval_every": 10**9,
+    "eval_tasks": 4,
+    "checkpoint_every": 10**9,
+    "hidden": 32,
+    "batch_size": 16,
+}
 
 
 def argv(settings: dict) -> list[str]:
@@ -50,11 +60,13 @@ def logged_steps(run: Path) -> list[int]:
 
 def dqn_main():
     from learning.dqn import main
+
     return main
 
 
 def export_main():
     from learning.export import main
+
     return main
 
 
@@ -62,8 +74,10 @@ def export_main():
 def run(tmp_path_factory):
     """A finished 300-step grid run (best.pt, last.pt, metrics.jsonl)."""
     out = tmp_path_factory.mktemp("trained") / "run"
-    before, sys.argv = sys.argv, ["prog", "--domain", MINIMAL, "--horizon", "myopic", "--no-progress",
-                                  "--out", str(out), *argv(SMALL)]
+    before, sys.argv = (
+        sys.argv,
+        ["prog", "--domain", MINIMAL, "--horizon", "myopic", "--no-progress", "--out", str(out), *argv(SMALL)],
+    )
     try:
         dqn_main()()
     finally:
@@ -80,11 +94,18 @@ class HeldLock:
     """Another process holding a folder's OutputLock, as a trainer still running holds its run folder's."""
 
     def __init__(self, folder: Path):
-        code = ("import sys; from planning.atomic import OutputLock\n"
-                "with OutputLock(sys.argv[1], 'training run'):\n"
-                "    print('held', flush=True); sys.stdin.read()\n")
-        self.p = subprocess.Popen([sys.executable, "-c", code, str(folder)], cwd=ROOT, stdin=subprocess.PIPE,
-                                  stdout=subprocess.PIPE, text=True)
+        code = (
+            "import sys; from planning.atomic import OutputLock\n"
+            "with OutputLock(sys.argv[1], 'training run'):\n"
+            "    print('held', flush=True); sys.stdin.read()\n"
+        )
+        self.p = subprocess.Popen(
+            [sys.executable, "-c", code, str(folder)],
+            cwd=ROOT,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
         assert self.p.stdout.readline().strip() == "held"
 
     def __enter__(self):
@@ -104,8 +125,11 @@ def stale_start(folder: Path) -> None:
 
 def test_a_run_without_a_checkpoint_starts_over_through_learning_dqn(tmp_path, capsys):
     stale_start(tmp_path / "run")
-    code, err = command(dqn_main(), ["--domain", MINIMAL, "--horizon", "myopic", "--no-progress",
-                                     "--out", tmp_path / "run", *argv(SMALL)], capsys)
+    code, err = command(
+        dqn_main(),
+        ["--domain", MINIMAL, "--horizon", "myopic", "--no-progress", "--out", tmp_path / "run", *argv(SMALL)],
+        capsys,
+    )
     assert code == 0, err
     assert logged_steps(tmp_path / "run") == [100, 200, 300]
     assert "no last.pt to resume from" in err
@@ -116,8 +140,14 @@ def test_a_run_without_a_checkpoint_starts_over_through_a_sweep(tmp_path):
     from experiments.sweep import train_item
 
     stale_start(tmp_path / "run")
-    item = {"domain": MINIMAL, "layout": "grid", "horizon": "myopic", "seed": 0, "settings": dict(SMALL),
-            "out": str(tmp_path / "run")}
+    item = {
+        "domain": MINIMAL,
+        "layout": "grid",
+        "horizon": "myopic",
+        "seed": 0,
+        "settings": dict(SMALL),
+        "out": str(tmp_path / "run"),
+    }
     r = train_item(item)
     assert logged_steps(tmp_path / "run") == [100, 200, 300] and r["steps"] == 300
     # resumed from its last.pt: the rows past the checkpoint are dropped, the others kept once
@@ -165,8 +195,14 @@ def test_a_sweep_run_killed_and_rerun_logs_each_step_once_as_the_uninterrupted_r
     # the target network synced at the checkpoints: the target values a trainer caches (learning.q.targets) are then
     # recomputed after a resume in the batches the uninterrupted run computes them in, so the rows agree exactly
     settings = {**SMALL, "steps": 400, "checkpoint_every": every, "target_every": 100}
-    item = lambda out: {"domain": MINIMAL, "layout": "grid", "horizon": "myopic", "seed": 0, "settings": settings,
-                        "out": str(tmp_path / out)}
+    item = lambda out: {
+        "domain": MINIMAL,
+        "layout": "grid",
+        "horizon": "myopic",
+        "seed": 0,
+        "settings": settings,
+        "out": str(tmp_path / out),
+    }
     whole = train_item(item("whole"))
     train_killed(item("killed"), at, monkeypatch)
     assert logged_steps(tmp_path / "killed") == [100, 200, 300][: at // 100]
@@ -183,14 +219,18 @@ def test_a_second_trainer_of_a_run_folder_stops_at_once(tmp_path, capsys):
     folder = tmp_path / "run"
     folder.mkdir()
     with HeldLock(folder):
-        code, err = command(dqn_main(), ["--domain", MINIMAL, "--horizon", "myopic", "--no-progress",
-                                         "--out", folder, *argv(SMALL)], capsys)
+        code, err = command(
+            dqn_main(),
+            ["--domain", MINIMAL, "--horizon", "myopic", "--no-progress", "--out", folder, *argv(SMALL)],
+            capsys,
+        )
     lines = [line for line in err.splitlines() if line.strip()]
     assert code == 2 and len(lines) == 1 and lines[0].startswith(f"error: {folder}: another process"), err
-    assert not (folder / "metrics.jsonl").exists()           # nothing of the second run was written
-    code, err = command(dqn_main(), ["--domain", MINIMAL, "--horizon", "myopic", "--no-progress",
-                                     "--out", folder, *argv(SMALL)], capsys)
-    assert code == 0 and logged_steps(folder) == [100, 200, 300]      # once the first has ended, it trains
+    assert not (folder / "metrics.jsonl").exists()  # nothing of the second run was written
+    code, err = command(
+        dqn_main(), ["--domain", MINIMAL, "--horizon", "myopic", "--no-progress", "--out", folder, *argv(SMALL)], capsys
+    )
+    assert code == 0 and logged_steps(folder) == [100, 200, 300]  # once the first has ended, it trains
 
 
 # ---- 2. the export replaces only its own run's files, checks everything first -----------------------
@@ -199,28 +239,32 @@ def test_export_refuses_another_runs_checkpoint_and_figures(run, tmp_path, capsy
     shutil.copy(COMMITTED, ck)
     committed = sha256(ck)
     code, err = command(export_main(), [run, "--out", ck, "--figures", figs], capsys)
-    assert code == 2 and f"error: {ck}: the checkpoint of another run (run folder " \
-                          "'runs/dqn/restaurant-two-room-myopic-seed0', not" in err, err
+    assert (
+        code == 2
+        and f"error: {ck}: the checkpoint of another run (run folder 'runs/dqn/restaurant-two-room-myopic-seed0', not"
+        in err
+    ), err
     assert sha256(ck) == committed and not figs.exists()
     shutil.copy(COMMITTED_FIGURES, figs)
     code, err = command(export_main(), [run, "--out", tmp_path / "fresh.pt", "--figures", figs], capsys)
     assert code == 2 and f"error: {figs}: the key figures of another run" in err, err
-    assert not (tmp_path / "fresh.pt").exists()               # the figures are checked before the checkpoint is written
+    assert not (tmp_path / "fresh.pt").exists()  # the figures are checked before the checkpoint is written
     code, err = command(export_main(), [run, "--out", ck, "--figures", figs, "--force"], capsys)
     assert code == 0, err
     assert read_checkpoint(ck)["config"]["out"] == str(run)
 
 
-def test_exporting_the_same_run_again_keeps_its_checkpoint_and_another_steps_count_is_another_run(run, tmp_path,
-                                                                                                     capsys):
+def test_exporting_the_same_run_again_keeps_its_checkpoint_and_another_steps_count_is_another_run(
+    run, tmp_path, capsys
+):
     ck, figs = tmp_path / "rl.pt", tmp_path / "training.json"
     assert command(export_main(), [run, "--out", ck, "--figures", figs], capsys)[0] == 0
     before = ck.read_bytes(), figs.read_bytes()
     code, err = command(export_main(), [run, "--out", ck, "--figures", figs], capsys)
-    assert code == 0 and (ck.read_bytes(), figs.read_bytes()) == before, err     # a no-op, byte for byte
+    assert code == 0 and (ck.read_bytes(), figs.read_bytes()) == before, err  # a no-op, byte for byte
     other = copy_run(run, tmp_path / "other")
     best = read_checkpoint(other / "best.pt")
-    best["config"]["out"], best["config"]["steps"] = str(run), 400          # the same folder, trained to 400
+    best["config"]["out"], best["config"]["steps"] = str(run), 400  # the same folder, trained to 400
     save_checkpoint(other / "best.pt", best)
     code, err = command(export_main(), [other, "--out", ck, "--figures", figs], capsys)
     assert code == 2 and f"{ck}: the checkpoint of another run (steps 300, not 400)" in err, err
@@ -243,11 +287,10 @@ def test_export_checks_everything_before_writing(run, tmp_path, capsys):
 def test_export_refuses_a_run_being_trained_and_notes_an_unfinished_one(run, tmp_path, capsys):
     busy = copy_run(run, tmp_path / "busy")
     with HeldLock(busy):
-        code, err = command(export_main(), [busy, "--out", tmp_path / "a.pt", "--figures", tmp_path / "a.json"],
-                            capsys)
+        code, err = command(export_main(), [busy, "--out", tmp_path / "a.pt", "--figures", tmp_path / "a.json"], capsys)
     assert code == 2 and f"error: {busy}: is still being written" in err, err
     assert not (tmp_path / "a.pt").exists()
-    last = read_checkpoint(busy / "last.pt")              # a run stopped at 300 of the 1,000 steps it was set to
+    last = read_checkpoint(busy / "last.pt")  # a run stopped at 300 of the 1,000 steps it was set to
     last["config"]["steps"] = 1000
     save_checkpoint(busy / "last.pt", last)
     code, err = command(export_main(), [busy, "--out", tmp_path / "a.pt", "--figures", tmp_path / "a.json"], capsys)
@@ -266,21 +309,33 @@ def test_export_names_its_outputs_from_checked_values(run, tmp_path, capsys, mon
     save_checkpoint(bad / "best.pt", best)
     code, err = command(export_main(), [bad], capsys)
     assert code == 2 and f"error: {bad}/best.pt: config.seed '0/../../escaped' cannot name an output" in err, err
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["work"]           # nothing written anywhere
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["work"]  # nothing written anywhere
     # a GNN dataset's layout names its figures file
     data = tmp_path / "work" / "data"
     data.mkdir()
-    (data / "meta.json").write_text(json.dumps({"kinds": ["faithful"], "c_ap": [1.0], "label_seconds": [0.1], "n": 1,
-                                                "layout": "../../escaped", "config": {"augmented": False}}))
+    (data / "meta.json").write_text(
+        json.dumps(
+            {
+                "kinds": ["faithful"],
+                "c_ap": [1.0],
+                "label_seconds": [0.1],
+                "n": 1,
+                "layout": "../../escaped",
+                "config": {"augmented": False},
+            }
+        )
+    )
     code, err = command(export_main(), [data], capsys)
     assert code == 2 and f"error: {data}/meta.json: layout '../../escaped' cannot name an output" in err, err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["work"]
     # a GNN run's layout names its checkpoint
     from learning.gnn.model import save_gnn_checkpoint
+
     (data / "meta.json").write_text(json.dumps({"config": {"augmented": False}}))
     gnn = tmp_path / "work" / "gnn"
-    save_gnn_checkpoint(gnn / "best.pt", {"model": {}, "dims": {}, "layout": "../x", "config": {"data": str(data),
-                                                                                            "seed": 0}})
+    save_gnn_checkpoint(
+        gnn / "best.pt", {"model": {}, "dims": {}, "layout": "../x", "config": {"data": str(data), "seed": 0}}
+    )
     code, err = command(export_main(), [gnn], capsys)
     assert code == 2 and f"error: {gnn}/best.pt: layout '../x' cannot name an output" in err, err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["work"]
@@ -289,13 +344,29 @@ def test_export_names_its_outputs_from_checked_values(run, tmp_path, capsys, mon
 @pytest.mark.parametrize("option", [["--eps-schedule", "reach,../../x"], ["--demo-planner", "internal,../../x"]])
 def test_a_sweep_checks_its_values_before_writing_anything(tmp_path, option):
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
-    r = subprocess.run([sys.executable, "-m", "experiments.sweep", "--domain", MINIMAL, "--horizon", "myopic",
-                        "--no-progress", *argv(SMALL), *option], capture_output=True, text=True, cwd=tmp_path,
-                       timeout=300, env=env)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "experiments.sweep",
+            "--domain",
+            MINIMAL,
+            "--horizon",
+            "myopic",
+            "--no-progress",
+            *argv(SMALL),
+            *option,
+        ],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=300,
+        env=env,
+    )
     lines = r.stderr.strip().splitlines()
     assert r.returncode == 2 and len(lines) == 1 and lines[0].startswith(f"error: {option[0]}: "), r.stderr
     assert "../../x" in lines[0]
-    assert list(tmp_path.iterdir()) == []                     # no parts folder, no run folder, nothing
+    assert list(tmp_path.iterdir()) == []  # no parts folder, no run folder, nothing
 
 
 # ---- 5. checkpoints record the domain ----------------------------------------------------------------
@@ -310,36 +381,51 @@ def test_checkpoints_and_figures_record_the_domain(run, tmp_path, capsys, minima
     assert {k: json.loads(figs.read_text())[k] for k in mine} == mine
 
 
-def test_a_checkpoint_of_another_domain_or_layout_is_refused_and_other_content_is_a_warning(run, tmp_path, capsys,
-                                                                                            minimal):
+def test_a_checkpoint_of_another_domain_or_layout_is_refused_and_other_content_is_a_warning(
+    run, tmp_path, capsys, minimal
+):
     from experiments.registry import agent_class
     from planning.errors import DomainError
 
     payload = read_checkpoint(run / "best.pt")
-    for key, value, expect in (("domain", "restaurant", "trained for restaurant/grid, not minimal/grid"),
-                               ("layout", "attic", "trained for minimal/attic, not minimal/grid")):
-        edited = {**payload, "domain": value} if key == "domain" else \
-            {**payload, "config": {**payload["config"], "layout": value}}
+    for key, value, expect in (
+        ("domain", "restaurant", "trained for restaurant/grid, not minimal/grid"),
+        ("layout", "attic", "trained for minimal/attic, not minimal/grid"),
+    ):
+        edited = (
+            {**payload, "domain": value}
+            if key == "domain"
+            else {**payload, "config": {**payload["config"], "layout": value}}
+        )
         path = save_checkpoint(tmp_path / f"{key}.pt", edited)
         agent = agent_class("rl-greedy").from_args(Namespace(checkpoint=str(path)))
         with pytest.raises(DomainError, match=expect):
             agent.start(minimal, None)
     capsys.readouterr()
-    other = save_checkpoint(tmp_path / "edited.pt", {**payload, "domain_sha256": "0" * 64,
-                                                     "domain_files": {**payload["domain_files"], "domain.toml": "0"}})
-    vf = load_value_function(other, minimal)                  # usable, with one line saying so
+    other = save_checkpoint(
+        tmp_path / "edited.pt",
+        {**payload, "domain_sha256": "0" * 64, "domain_files": {**payload["domain_files"], "domain.toml": "0"}},
+    )
+    vf = load_value_function(other, minimal)  # usable, with one line saying so
     load_value_function(other, minimal)
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0] == f"warning: {other}: trained on other content of domain 'minimal' " \
-                                       "(changed: domain.toml); used as it is", err
+    assert (
+        len(err) == 1
+        and err[0]
+        == f"warning: {other}: trained on other content of domain 'minimal' (changed: domain.toml); used as it is"
+    ), err
     assert vf.greedy([minimal.reset_state(0)], 0).shape == (1,)
     # resuming a run under another domain's name is refused too
     last = read_checkpoint(run / "last.pt")
     moved = copy_run(run, tmp_path / "moved")
-    save_checkpoint(moved / "last.pt", {**last, "domain": "restaurant",
-                                        "config": {**last["config"], "out": str(moved)}})
-    code, err = command(dqn_main(), ["--domain", MINIMAL, "--horizon", "myopic", "--no-progress", "--out", moved,
-                                     *argv({**SMALL, "steps": 400})], capsys)
+    save_checkpoint(
+        moved / "last.pt", {**last, "domain": "restaurant", "config": {**last["config"], "out": str(moved)}}
+    )
+    code, err = command(
+        dqn_main(),
+        ["--domain", MINIMAL, "--horizon", "myopic", "--no-progress", "--out", moved, *argv({**SMALL, "steps": 400})],
+        capsys,
+    )
     assert code == 2 and f"{moved}/last.pt: trained for restaurant/grid, not minimal/grid" in err, err
 
 

@@ -1,5 +1,6 @@
 """The value registry (learning.values): every kind loads by name, a new kind is one module and one row, and the
 guided agents, value_rank and bench_bn take any of them through --value."""
+
 import argparse
 import json
 import shutil
@@ -29,8 +30,14 @@ def checkpoint(minimal, tmp_path_factory):
 
     enc = Encoding(minimal)
     path = tmp_path_factory.mktemp("ckpt") / "rl-anticipatory-grid-seed0.pt"
-    return str(save_checkpoint(path, network_payload(build_network(enc, 16), enc,
-                                                     {"step": 1, "config": {"gamma": 0.99, "horizon": "anticipatory"}})))
+    return str(
+        save_checkpoint(
+            path,
+            network_payload(
+                build_network(enc, 16), enc, {"step": 1, "config": {"gamma": 0.99, "horizon": "anticipatory"}}
+            ),
+        )
+    )
 
 
 @pytest.fixture(scope="module")
@@ -41,8 +48,11 @@ def gnn(minimal, tmp_path_factory):
     names = GraphEncoder(minimal).feature_names
     net = GNNCostModel(len(names), width=8)
     path = tmp_path_factory.mktemp("gnn") / "gnn-grid-seed0.pt"
-    return str(save_gnn_checkpoint(path, {"model": net.state_dict(), "dims": net.dims, "feature_names": names,
-                                          "layout": minimal.layout}))
+    return str(
+        save_gnn_checkpoint(
+            path, {"model": net.state_dict(), "dims": net.dims, "feature_names": names, "layout": minimal.layout}
+        )
+    )
 
 
 def guided(name, argv, model):
@@ -75,7 +85,7 @@ def test_every_row_loads_a_value_of_the_protocol(minimal, checkpoint, gnn):
         assert isinstance(v, Value) and type(v) is values.value_class(kind), kind
         assert v.q_max(s, minimal.tasks.get("clear(c)")).shape == v.v_ap(s).shape == (1,)
     zero = values.load_value("zero", minimal)
-    assert isinstance(zero, ZeroValue) and zero.gamma == 0.99                  # the grid's [reward] gamma
+    assert isinstance(zero, ZeroValue) and zero.gamma == 0.99  # the grid's [reward] gamma
     exact, myopic = values.load_value("exact", minimal), values.load_value("exact:myopic", minimal)
     assert (exact.horizon, myopic.horizon) == ("anticipatory", "myopic")
     assert exact.v_ap(s)[0] == ExactValue(minimal).v_ap(s)[0]
@@ -87,19 +97,27 @@ def test_every_row_loads_a_value_of_the_protocol(minimal, checkpoint, gnn):
 
 def test_a_short_form_and_its_value_name_make_the_same_run(minimal, checkpoint, gnn):
     """--checkpoint PATH is --value q-network:PATH, --model PATH is --value gnn:PATH: same config, same name."""
-    for name, short, kind, path, stem in (("rl-guided", "--checkpoint", "q-network", checkpoint, "anticipatory-grid"),
-                                          ("gnn-guided", "--model", "gnn", gnn, "grid")):
+    for name, short, kind, path, stem in (
+        ("rl-guided", "--checkpoint", "q-network", checkpoint, "anticipatory-grid"),
+        ("gnn-guided", "--model", "gnn", gnn, "grid"),
+    ):
         a = guided(name, [short, path, "--budget", "50"], minimal)
         b = guided(name, ["--value", f"{kind}:{path}", "--budget", "50"], minimal)
         assert (a.config, a.run_name) == (b.config, b.run_name)
         assert a.run_name == f"{name}-{stem}-seed0-beta3-budget50-depth20"
-        assert a.config["reference"] == {"planner": "internal", "time_limit": 60.0, "search": "astar(pdb) by f-levels",
-                                         "note": "exact optimal: C_myo is the true myopic cost (the authors' was LAMA)"}
+        assert a.config["reference"] == {
+            "planner": "internal",
+            "time_limit": 60.0,
+            "search": "astar(pdb) by f-levels",
+            "note": "exact optimal: C_myo is the true myopic cost (the authors' was LAMA)",
+        }
     rl = guided("rl-guided", ["--checkpoint", checkpoint], minimal)
     assert list(rl.config) == ["checkpoint", "step", "horizon", "gamma", "beta", "budget", "depth_cap", "reference"]
     assert rl.run_name == "rl-guided-anticipatory-grid-seed0"
     other = guided("gnn-guided", ["--value", f"q-network:{checkpoint}"], minimal)
-    assert other.run_name == "gnn-guided-q-network-rl-anticipatory-grid-seed0" and other.config["checkpoint"] == checkpoint
+    assert (
+        other.run_name == "gnn-guided-q-network-rl-anticipatory-grid-seed0" and other.config["checkpoint"] == checkpoint
+    )
     assert guided("rl-guided", ["--value", "exact:myopic"], minimal).run_name == "rl-guided-exact-myopic"
 
 
@@ -157,13 +175,19 @@ def test_a_new_value_kind_is_one_module_and_one_row(minimal, tilt):
     costs = {}
     for name in ("tilt:a", "tilt:b", "zero"):
         agent = guided("rl-guided", ["--value", name], minimal)
-        costs[name] = [[r["cost"] for r in play_sequence(minimal, agent, Sequence(0, reset, [clear, to]))]
-                       for reset in (0, 1) for to in (to_a, to_b)]
+        costs[name] = [
+            [r["cost"] for r in play_sequence(minimal, agent, Sequence(0, reset, [clear, to]))]
+            for reset in (0, 1)
+            for to in (to_a, to_b)
+        ]
     import tilt_value
 
     assert tilt_value.TiltValue.loaded == ["a", "b"]
-    assert costs == {"tilt:a": [[11, 0], [11, 6], [10, 0], [10, 6]], "tilt:b": [[11, 6], [11, 0], [10, 6], [10, 0]],
-                     "zero": [[11, 0], [11, 6], [10, 0], [10, 6]]}
+    assert costs == {
+        "tilt:a": [[11, 0], [11, 6], [10, 0], [10, 6]],
+        "tilt:b": [[11, 6], [11, 0], [10, 6], [10, 0]],
+        "zero": [[11, 0], [11, 6], [10, 0], [10, 6]],
+    }
     agent = guided("rl-guided", ["--value", "tilt:b"], minimal)
     assert agent.run_name == "rl-guided-tilt-b" and agent.config["value"] == "tilt:b"
 
@@ -174,15 +198,30 @@ def test_evaluate_plays_a_new_value_kind_and_exact_by_name(tiny, tilt, tmp_path,
     out = {}
     for name in ("tilt:b", "exact", "zero"):
         path = tmp_path / f"{name.replace(':', '-')}.json"
-        sys.argv = ["evaluate", "--agent", "rl-guided", "--domain", str(tiny), "--layout", "grid", "--value", name,
-                    "--sequences", "0-1", "--out", str(path), "--no-progress"]
+        sys.argv = [
+            "evaluate",
+            "--agent",
+            "rl-guided",
+            "--domain",
+            str(tiny),
+            "--layout",
+            "grid",
+            "--value",
+            name,
+            "--sequences",
+            "0-1",
+            "--out",
+            str(path),
+            "--no-progress",
+        ]
         main()
         out[name] = json.loads(path.read_text())
     assert out["tilt:b"]["config"]["value"] == "tilt:b"
     assert out["exact"]["config"]["horizon"] == "anticipatory"
     assert out["zero"]["config"]["value"] == "zero" and out["tilt:b"]["agent"] == "rl-guided"
     assert {k: [r["cost"] for r in d["per_task"]] for k, d in out.items()} == {
-        k: [12, 0, 0, 0, 12, 0, 0, 6] for k in out}
+        k: [12, 0, 0, 0, 12, 0, 0, 6] for k in out
+    }
 
 
 def test_the_reference_is_any_registered_planner(minimal):
@@ -195,11 +234,15 @@ def test_the_reference_is_any_registered_planner(minimal):
     assert (named.config, named.run_name) == (default.config, default.run_name)
     untimed = lambda rows: [{k: v for k, v in r.items() if not k.endswith("seconds")} for r in rows]
     assert untimed(play_sequence(minimal, named, seq)) == untimed(play_sequence(minimal, default, seq))
-    fd = guided("rl-guided", ["--value", "exact", "--reference-agent", "myopic-oracle --planner fast-downward"], minimal)
+    fd = guided(
+        "rl-guided", ["--value", "exact", "--reference-agent", "myopic-oracle --planner fast-downward"], minimal
+    )
     assert fd.run_name == "rl-guided-exact-fast-downward" and fd.config["reference"]["time_limit"] == 60.0
     k2 = guided("rl-guided", ["--value", "exact", "--reference-agent", "clairvoyant --K 2"], minimal)
     assert isinstance(k2.reference, ClairvoyantOracle) and k2.reference.time_limit == 60.0
-    assert k2.config["reference"]["agent"] == "clairvoyant-2" and k2.run_name == f"rl-guided-exact-{k2.reference.run_name}"
+    assert (
+        k2.config["reference"]["agent"] == "clairvoyant-2" and k2.run_name == f"rl-guided-exact-{k2.reference.run_name}"
+    )
     rows = play_sequence(minimal, k2, seq)
     assert [r["success"] for r in rows] == [True, True]
     with pytest.raises(DomainError, match="random is not a planner"):
@@ -220,16 +263,44 @@ def test_value_rank_and_bench_bn_take_a_value_by_name(minimal, tmp_path, monkeyp
     states = list(dict.fromkeys(minimal.random_walk_states(60, seed=0)))
     data = tmp_path / "data"
     data.mkdir()
-    (data / "meta.json").write_text(json.dumps({
-        "domain": minimal.name, "layout": "grid", "n": len(states), "c_ap": (-100 * exact.v_ap(states)).tolist(),
-        "atoms": [[atom_text(k) for k in minimal.true_atoms(s)] for s in states]}))
+    (data / "meta.json").write_text(
+        json.dumps(
+            {
+                "domain": minimal.name,
+                "layout": "grid",
+                "n": len(states),
+                "c_ap": (-100 * exact.v_ap(states)).tolist(),
+                "atoms": [[atom_text(k) for k in minimal.true_atoms(s)] for s in states],
+            }
+        )
+    )
     row = value_rank.rank(["exact"], str(data), "domains/minimal")["values"][0]
     assert row["value"] == "exact" and row["kind"] == "ExactValue"
     assert row["all"]["spearman"] == 1.0 and row["all"]["slope_rl_per_pddl"] == pytest.approx(0.01)
     out = tmp_path / "bench.json"
-    monkeypatch.setattr(sys, "argv", ["bench_bn", "--domain", "domains/minimal", "--layout", "grid", "--value", "exact",
-                                      "--stream", "--seed", "0", "--tasks", "6", "--budget", "100", "--quiet",
-                                      "--out", str(out)])
+    monkeypatch.setattr(
+        sys,
+        "argv",
+        [
+            "bench_bn",
+            "--domain",
+            "domains/minimal",
+            "--layout",
+            "grid",
+            "--value",
+            "exact",
+            "--stream",
+            "--seed",
+            "0",
+            "--tasks",
+            "6",
+            "--budget",
+            "100",
+            "--quiet",
+            "--out",
+            str(out),
+        ],
+    )
     bench_bn.main()
     r = json.loads(out.read_text())
     assert (r["value"], r["checkpoint"], r["same_plans"]) == ("exact", None, r["searched_tasks"])

@@ -1,4 +1,5 @@
 """The labelling oracle: C_AP(s) = sum_tau P(tau) C*_tau(s), every task's cost from one multi-goal search."""
+
 import json
 import subprocess
 import sys
@@ -13,11 +14,21 @@ from planning.search.optimal import optimal_plan
 
 # Hops between the restaurant's locations (shared/restaurant.md); a move costs 25 x hops.
 HOPS = {
-    ("countertop", "coffeemachine"): 1, ("countertop", "dishwasher"): 2, ("countertop", "shelf"): 1,
-    ("countertop", "servingtable"): 8, ("countertop", "fountain"): 9, ("coffeemachine", "dishwasher"): 1,
-    ("coffeemachine", "shelf"): 2, ("coffeemachine", "servingtable"): 7, ("coffeemachine", "fountain"): 8,
-    ("dishwasher", "shelf"): 3, ("dishwasher", "servingtable"): 8, ("dishwasher", "fountain"): 9,
-    ("shelf", "servingtable"): 7, ("shelf", "fountain"): 8, ("servingtable", "fountain"): 2,
+    ("countertop", "coffeemachine"): 1,
+    ("countertop", "dishwasher"): 2,
+    ("countertop", "shelf"): 1,
+    ("countertop", "servingtable"): 8,
+    ("countertop", "fountain"): 9,
+    ("coffeemachine", "dishwasher"): 1,
+    ("coffeemachine", "shelf"): 2,
+    ("coffeemachine", "servingtable"): 7,
+    ("coffeemachine", "fountain"): 8,
+    ("dishwasher", "shelf"): 3,
+    ("dishwasher", "servingtable"): 8,
+    ("dishwasher", "fountain"): 9,
+    ("shelf", "servingtable"): 7,
+    ("shelf", "fountain"): 8,
+    ("servingtable", "fountain"): 2,
 }
 
 
@@ -45,8 +56,11 @@ def test_probabilities_weight_the_sum(minimal):
     assert lab.goals.probabilities.sum() == pytest.approx(1.0)
     start = lab.label(minimal.init)
     assert {t.name: int(c) for t, c in zip(minimal.tasks, start.costs)} == {
-        "clear(c)": 10, "deliver(b)": 10, "deliver(a)": 10}
-    assert start.c_ap == pytest.approx(10.0)          # clear(c) has P = 0: its 10 does not count
+        "clear(c)": 10,
+        "deliver(b)": 10,
+        "deliver(a)": 10,
+    }
+    assert start.c_ap == pytest.approx(10.0)  # clear(c) has P = 0: its 10 does not count
     near_a = lab.label(minimal.state_from_atoms(["(robot-at a)", "(hand-free)", "(at apple a)"]))
     near_b = lab.label(minimal.state_from_atoms(["(robot-at b)", "(hand-free)", "(at apple b)"]))
     assert near_a.c_ap == pytest.approx(0.8 * 6) and near_b.c_ap == pytest.approx(0.2 * 6)
@@ -62,15 +76,21 @@ def test_three_room_start_by_hand(three_room, start_label):
     """The start state's C_AP from the costs worked out with restaurant.md's tables."""
     label = start_label
     costs = {t.name: int(c) for t, c in zip(three_room.tasks, label.costs)}
-    assert costs["serve-water(servingtable)"] == 1475          # restaurant.md's reference figure
+    assert costs["serve-water(servingtable)"] == 1475  # restaurant.md's reference figure
     # pick cup_0 100, to coffeemachine 25, place 100, brew 50, pick 100, to servingtable 175, place 100
     assert costs["make-coffee(servingtable)"] == 650
     assert costs["wash(bowls)"] == costs["wash(knives)"] == 0  # clean at the countertop already
-    assert costs["clear(servingtable)"] == 200 + 100           # walk there and pick the plate up
+    assert costs["clear(servingtable)"] == 200 + 100  # walk there and pick the plate up
     # pick knife, cut, put the knife down, pick the bowl, carry it, place it
     assert costs["fruit-bowl(servingtable)"] == 100 + 100 + 100 + 100 + 200 + 100
-    where = {"cup_0": "countertop", "cup_1": "dishwasher", "bowl_0": "countertop", "knife_0": "countertop",
-             "jar_0": "pantry", "plate_0": "servingtable"}
+    where = {
+        "cup_0": "countertop",
+        "cup_1": "dishwasher",
+        "bowl_0": "countertop",
+        "knife_0": "countertop",
+        "jar_0": "pantry",
+        "plate_0": "servingtable",
+    }
     pick_place = 0.0
     for o, at in where.items():
         for loc in ["countertop", "coffeemachine", "dishwasher", "shelf", "servingtable", "fountain", "pantry"]:
@@ -122,15 +142,21 @@ def test_bad_state_file_is_one_line_error(tmp_path, three_room):
     f.write_text("[oops")
     with pytest.raises(DomainError, match="malformed JSON"):
         read_state(three_room, f)
-    r = subprocess.run([sys.executable, "-m", "oracles.labelling", "--domain", "domains/minimal",
-                        "--state", str(f)], capture_output=True, text=True)
+    r = subprocess.run(
+        [sys.executable, "-m", "oracles.labelling", "--domain", "domains/minimal", "--state", str(f)],
+        capture_output=True,
+        text=True,
+    )
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "bad.json" in r.stderr
 
 
 def test_command_writes_json(tmp_path):
     out = tmp_path / "label.json"
-    r = subprocess.run([sys.executable, "-m", "oracles.labelling", "--domain", "domains/minimal",
-                        "--out", str(out)], capture_output=True, text=True)
+    r = subprocess.run(
+        [sys.executable, "-m", "oracles.labelling", "--domain", "domains/minimal", "--out", str(out)],
+        capture_output=True,
+        text=True,
+    )
     assert r.returncode == 0, r.stderr
     got = json.loads(out.read_text())
     assert got["c_ap"] == pytest.approx(10.0)

@@ -1,5 +1,6 @@
 """The labelling oracle's reachability check: task consumption and world resets make states reachable that
 actions alone do not, and where the check cannot prove a state impossible it warns instead of refusing."""
+
 import json
 import sys
 from pathlib import Path
@@ -45,7 +46,7 @@ def test_a_consumption_reached_state_is_labelled(mugs, monkeypatch, capsys, tmp_
     s = mugs.init
     for a in uniform_cost_search(mugs, s, serve_b).plan:
         s = mugs.apply(s, a)
-    assert serve_b.consume(s) == state                       # reachable: the task's own consumption
+    assert serve_b.consume(s) == state  # reachable: the task's own consumption
     assert not MutexPairs(mugs, [mugs.init]).respects(state)  # what actions alone allow: refused
     assert ReachablePairs(mugs).violated(state) == []
     assert check_possible(mugs, state, "s") is None
@@ -62,9 +63,11 @@ def test_an_impossible_state_is_still_refused(mugs, monkeypatch, capsys, tmp_pat
     path.write_text(json.dumps(["(robot-at desk_a)", "(robot-at desk_b)", "(hand-free)", "(at mug_0 desk_a)"]))
     code, out, err = label_cli(monkeypatch, capsys, "--state", str(path))
     assert code == 2 and out == ""
-    assert err.strip() == (f"error: {path}: an impossible state: (robot-at desk_a) and (robot-at desk_b) never "
-                           "hold together in any state this layout reaches (from a world reset, by actions and "
-                           "task consumption)")
+    assert err.strip() == (
+        f"error: {path}: an impossible state: (robot-at desk_a) and (robot-at desk_b) never "
+        "hold together in any state this layout reaches (from a world reset, by actions and "
+        "task consumption)"
+    )
 
 
 def test_unsure_is_a_warning_not_a_refusal(mugs, monkeypatch, capsys, tmp_path):
@@ -76,17 +79,21 @@ def test_unsure_is_a_warning_not_a_refusal(mugs, monkeypatch, capsys, tmp_path):
     assert complete and len(states) == 24 and nowhere not in states
     assert check_possible(mugs, nowhere, "s") == (
         "s: not reachable as far as I can tell: none of the 24 states reachable from the world resets by actions "
-        "and task consumption; labelled as given")
+        "and task consumption; labelled as given"
+    )
     two = mugs.state_from_atoms(["(robot-at desk_a)", "(robot-at desk_b)", "(hand-free)", "(at mug_0 desk_a)"])
     assert not ReachablePairs(mugs, max_rounds=0).complete
     assert check_possible(mugs, two, "s", max_rounds=0).startswith(
-        "s: not reachable as far as I can tell: (robot-at desk_a) and (robot-at desk_b) seem never to hold together")
+        "s: not reachable as far as I can tell: (robot-at desk_a) and (robot-at desk_b) seem never to hold together"
+    )
     path = tmp_path / "nowhere.json"
     path.write_text(json.dumps(["(hand-free)", "(at mug_0 desk_a)"]))
     code, out, err = label_cli(monkeypatch, capsys, "--state", str(path))
     lines = err.strip().splitlines()
-    assert lines[0] == f"warning: {path}: not reachable as far as I can tell: none of the 24 states reachable " \
-                       "from the world resets by actions and task consumption; labelled as given"
+    assert (
+        lines[0] == f"warning: {path}: not reachable as far as I can tell: none of the 24 states reachable "
+        "from the world resets by actions and task consumption; labelled as given"
+    )
     assert code == 2 and "cannot be completed from this state" in lines[1]
 
 
@@ -103,15 +110,18 @@ def test_every_enumerated_state_respects_the_pairs(mugs, two_room):
     old = MutexPairs(two_room, [two_room.init] + [two_room.reset_state(k) for k in range(32)])
     new = ReachablePairs(two_room).matrix
     assert int(np.triu(new, 1).sum()) == len(old) - 1
-    assert not (np.triu(new, 1) & ~np.triu(old.matrix, 1)).any()     # nothing new is called mutex
+    assert not (np.triu(new, 1) & ~np.triu(old.matrix, 1)).any()  # nothing new is called mutex
     freed = np.argwhere(np.triu(old.matrix, 1) & ~np.triu(new, 1))
-    assert [(two_room.atoms[i], two_room.atoms[j]) for i, j in freed] == [(("dirty", "bowl_0"), ("has-water", "bowl_0"))]
+    assert [(two_room.atoms[i], two_room.atoms[j]) for i, j in freed] == [
+        (("dirty", "bowl_0"), ("has-water", "bowl_0"))
+    ]
 
 
 def test_reset_worlds_are_counted_exactly(two_room):
     """Both restaurant reset entries can dirty their object in one world: the bowl and the knife dirty together
     is a reset world, not an impossible state."""
-    both = two_room.state_from_atoms([f"({' '.join(a)})" for a in two_room.true_atoms(two_room.init)]
-                                     + ["(dirty bowl_0)", "(dirty knife_0)"])
+    both = two_room.state_from_atoms(
+        [f"({' '.join(a)})" for a in two_room.true_atoms(two_room.init)] + ["(dirty bowl_0)", "(dirty knife_0)"]
+    )
     assert ReachablePairs(two_room).violated(both) == []
     assert check_possible(two_room, both, "s") is None

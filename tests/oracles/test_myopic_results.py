@@ -5,6 +5,7 @@ from the sequence's reset seed rebuilds every (state, task) it met, where our
 exact planner must find the same optimal cost. A sample runs by default; all
 500 tasks per layout under -m slow.
 """
+
 import json
 from pathlib import Path
 

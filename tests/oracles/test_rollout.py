@@ -1,4 +1,5 @@
 """The persistent myopic rollout shared by calibration, demonstrations and dataset generation."""
+
 from oracles.myopic import MyopicOracle, rollout
 from planning.world.task_stream import TaskStream
 
@@ -11,7 +12,7 @@ def test_rollout_follows_the_stream_and_resumes(two_room):
     assert [r.task for r in records] == [stream.next()[0].name for _ in range(6)]
     assert records[0].reset_seed is not None and all(r.reset_seed is None for r in records[1:])
     for prev, r in zip(records, records[1:]):
-        assert r.states[0] == prev.after                      # the world persists between tasks
+        assert r.states[0] == prev.after  # the world persists between tasks
     for r in records:
         assert len(r.states) == len(r.plan) + 1
         assert r.cost == sum(two_room.action_cost[a] for a in r.plan)

@@ -1,4 +1,5 @@
 """The on-disk cache of persistent myopic rollouts (oracles.rollouts)."""
+
 import json
 import subprocess
 import sys
@@ -13,8 +14,7 @@ from planning.world.agents import Planner, Reply
 
 
 def fields(records):
-    return [(r.index, r.task, r.reset_seed, r.states, r.plan, r.cost, r.success, r.auto, r.after)
-            for r in records]
+    return [(r.index, r.task, r.reset_seed, r.states, r.plan, r.cost, r.success, r.auto, r.after) for r in records]
 
 
 @pytest.fixture(scope="module")
@@ -46,7 +46,7 @@ def test_extension_plans_only_the_new_tasks(two_room, direct, tmp_path, monkeypa
     plan = MyopicOracle.plan
     monkeypatch.setattr(MyopicOracle, "plan", lambda self, s, t, u: calls.append(t.name) or plan(self, s, t, u))
     extended = cached_rollout(two_room, 0, 4, cache_dir=tmp_path, progress=False)
-    assert calls == ["serve-water(servingtable)"]          # task 2; task 3 is already satisfied
+    assert calls == ["serve-water(servingtable)"]  # task 2; task 3 is already satisfied
     assert fields(extended) == fields(direct)
     assert json.loads(cache_path(two_room, 0, "internal", tmp_path).read_text())["tasks"] == 4
 
@@ -85,7 +85,7 @@ def test_mismatching_cache_names_the_record(two_room, tmp_path):
     with pytest.raises(DomainError, match=r"record 1 \(serve-water\(servingtable\)\) does not replay: cost"):
         cached_rollout(two_room, 0, 2, cache_dir=tmp_path, progress=False)
     data["records"][1]["cost"] -= 1
-    data["records"][0]["plan"][0] = "pick(cup_0, shelf)"        # not applicable where the cup is
+    data["records"][0]["plan"][0] = "pick(cup_0, shelf)"  # not applicable where the cup is
     path.write_text(json.dumps(data))
     with pytest.raises(DomainError, match="does not replay") as e:
         cached_rollout(two_room, 0, 2, cache_dir=tmp_path, progress=False)
@@ -98,8 +98,21 @@ def test_mismatching_cache_names_the_record(two_room, tmp_path):
 
 def test_command_fails_in_one_line_on_a_corrupt_cache(tmp_path):
     (tmp_path / "restaurant-two-room-internal-seed0.json").write_text("not json")
-    r = subprocess.run([sys.executable, "-m", "oracles.rollouts", "--layout", "two-room", "--tasks", "2",
-                        "--cache-dir", str(tmp_path)], capture_output=True, text=True)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "oracles.rollouts",
+            "--layout",
+            "two-room",
+            "--tasks",
+            "2",
+            "--cache-dir",
+            str(tmp_path),
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert r.returncode == 2
     assert r.stderr.count("\n") == 1 and "corrupt rollout cache" in r.stderr
 
@@ -118,8 +131,8 @@ def test_a_solved_state_and_task_is_answered_from_memory(two_room, direct):
     first = direct[0]
     reply = oracle.plan(first.states[0], two_room.tasks.get(first.task), [])
     assert reply.plan == first.plan and reply.info["remembered"] and Counting.calls == 0
-    assert oracle.plan(first.after, two_room.tasks.get(first.task), []).plan is None    # another world
-    assert Counting.calls == 1 and len(oracle.plans) == 3          # the auto record gives no plan
+    assert oracle.plan(first.after, two_room.tasks.get(first.task), []).plan is None  # another world
+    assert Counting.calls == 1 and len(oracle.plans) == 3  # the auto record gives no plan
 
 
 class Recording(Planner):
@@ -142,7 +155,7 @@ def test_lookahead_shows_the_next_tasks_up_to_the_world_reset(minimal):
     from planning.world.task_stream import TaskStream
 
     stream = TaskStream(minimal, 3)
-    drawn = [stream.next() for _ in range(8)]          # the minimal world resets every 2 tasks
+    drawn = [stream.next() for _ in range(8)]  # the minimal world resets every 2 tasks
     planner = Recording()
     planner.start(minimal, None)
     records = list(rollout(minimal, planner, seed=3, n_tasks=6, lookahead=2))

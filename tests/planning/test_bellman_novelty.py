@@ -1,4 +1,5 @@
 """The Bellman–Novelty search (thesis Algorithms 3-4) and its novelty tables, on hand-made graphs and the restaurant."""
+
 import random
 
 import numpy as np
@@ -70,15 +71,15 @@ def bits(*atoms) -> int:
 # ---- novelty ------------------------------------------------------------------------------------
 def test_widths_on_hand_made_states():
     t = NoveltyTables(4)
-    assert t.width(bits(0, 1)) == 1                     # nothing registered yet
+    assert t.width(bits(0, 1)) == 1  # nothing registered yet
     t.register(bits(0, 1))
     assert t.width(bits(0, 1)) is None and t.width(bits(1)) is None
-    assert t.width(bits(0, 2)) == 1                     # atom 2 is new
+    assert t.width(bits(0, 2)) == 1  # atom 2 is new
     t.register(bits(1, 2))
-    assert t.width(bits(0, 2)) == 2                     # atoms known, pair {0, 2} new
+    assert t.width(bits(0, 2)) == 2  # atoms known, pair {0, 2} new
     assert t.width(bits(0, 1, 2)) == 2
     t.register(bits(0, 2))
-    assert t.width(bits(0, 1, 2)) is None               # pairs 01, 12, 02 all seen
+    assert t.width(bits(0, 1, 2)) is None  # pairs 01, 12, 02 all seen
     assert t.width(bits(0, 3)) == 1
     assert t.atom_table().tolist() == [True, True, True, False]
     pairs = t.pair_table()
@@ -100,7 +101,7 @@ def test_fast_path_is_exact_for_a_child_of_a_registered_parent():
         for _ in range(rng.randrange(6)):
             t.register(bits(*rng.sample(range(n), 4)))
         parent = bits(*rng.sample(range(n), 5))
-        t.register(parent)                              # expanded on a novelty turn
+        t.register(parent)  # expanded on a novelty turn
         dele = bits(*rng.sample(atom_indices(parent), 2))
         add = bits(*rng.sample(range(n), 2))
         child = (parent & ~dele) | add
@@ -121,12 +122,19 @@ def test_schedule_forfeits_an_empty_lane_and_does_not_charge_a_stale_pop():
     r = bellman_novelty_search(GraphModel(SMALL, 4), R, NEVER, TableValue(), budget=100, beta=1.0, trace=trace)
     # Bellman R, A, C (best G first); the novelty turn skips stale R and A, expands B;
     # B's Bellman entry is then stale (no charge), and the empty Bellman heap forfeits twice.
-    assert turns(trace) == [("bellman", R), ("bellman", A), ("bellman", C), ("novelty", B),
-                            ("stale", B), ("forfeit",), ("forfeit",)]
+    assert turns(trace) == [
+        ("bellman", R),
+        ("bellman", A),
+        ("bellman", C),
+        ("novelty", B),
+        ("stale", B),
+        ("forfeit",),
+        ("forfeit",),
+    ]
     s = r.stats
     assert (s.expansions, s.bellman_expansions, s.novelty_expansions, s.stale, s.forfeited) == (4, 3, 1, 1, 2)
-    assert s.novelty_skipped == 3                       # R, A, then C on the last novelty turn
-    assert r.plan is None and s.terminals == 0          # nothing completes the task: no selection
+    assert s.novelty_skipped == 3  # R, A, then C on the last novelty turn
+    assert r.plan is None and s.terminals == 0  # nothing completes the task: no selection
 
 
 def test_budget_counts_expansions_only():
@@ -154,7 +162,7 @@ def test_three_bellman_turns_to_one_novelty_turn():
     trace = []
     r = bellman_novelty_search(GraphModel(edges, n), 1, NEVER, TableValue(), budget=30, beta=1.0, trace=trace)
     lane = ["N" if e[0] == "novelty" else "B" for e in trace]
-    assert "".join(lane) == ("BBBN" * 20)[:len(lane)]
+    assert "".join(lane) == ("BBBN" * 20)[: len(lane)]
     assert r.stats.novelty_expansions >= 7 and r.stats.expansions == 30
 
 
@@ -181,15 +189,22 @@ def test_novelty_pop_recomputes_the_width():
 def test_dedup_keeps_the_best_G_per_state_and_depth():
     s0, a, b, c, x, goal = bits(0), bits(1), bits(2), bits(5), bits(3), bits(4)
     # x at depth 2 via a (G -4), then via b (G -2: admitted again), then via c (G -6: rejected).
-    edges = {s0: [(1, a, 1), (2, b, 1), (6, c, 1)], a: [(3, x, 3)], b: [(4, x, 1)], c: [(7, x, 5)],
-             x: [(5, goal, 1)]}
+    edges = {s0: [(1, a, 1), (2, b, 1), (6, c, 1)], a: [(3, x, 3)], b: [(4, x, 1)], c: [(7, x, 5)], x: [(5, goal, 1)]}
     trace = []
-    r = bellman_novelty_search(GraphModel(edges, 6), s0, GoalTask([goal]), TableValue(), budget=100, beta=1.0,
-                               trace=trace)
+    r = bellman_novelty_search(
+        GraphModel(edges, 6), s0, GoalTask([goal]), TableValue(), budget=100, beta=1.0, trace=trace
+    )
     # B: s0, a, b; N: c (its x rejected); B: c stale, x (G -2), x (G -4) stale; N: nothing left.
-    assert turns(trace) == [("bellman", s0), ("bellman", a), ("bellman", b), ("novelty", c),
-                            ("stale", c), ("bellman", x), ("stale", x)]
-    assert r.stats.nodes == 6                           # s0, a, b, c, and x twice
+    assert turns(trace) == [
+        ("bellman", s0),
+        ("bellman", a),
+        ("bellman", b),
+        ("novelty", c),
+        ("stale", c),
+        ("bellman", x),
+        ("stale", x),
+    ]
+    assert r.stats.nodes == 6  # s0, a, b, c, and x twice
     assert [t.cost for t in r.terminals] == [3] and r.plan == [2, 4, 5]
 
 
@@ -214,13 +229,15 @@ def test_terminal_dedup_admits_only_a_better_G():
 def test_same_state_at_another_depth_is_not_a_duplicate_and_the_cap_gates_open_nodes():
     s0, a, goal = bits(0), bits(1), bits(2)
     edges = {s0: [(1, a, 1)], a: [(2, s0, 1), (3, goal, 1)]}
-    r = bellman_novelty_search(GraphModel(edges, 3), s0, GoalTask([goal]), TableValue(), budget=100, beta=9.0,
-                               depth_cap=5)
+    r = bellman_novelty_search(
+        GraphModel(edges, 3), s0, GoalTask([goal]), TableValue(), budget=100, beta=9.0, depth_cap=5
+    )
     # open: s0@0, a@1, s0@2, a@3, s0@4 (a@5 is at the cap); the goal from a@1 and a@3
     assert [t.depth for t in r.terminals] == [2, 4] and r.stats.expansions == 5
-    r = bellman_novelty_search(GraphModel(edges, 3), s0, GoalTask([goal]), TableValue(), budget=100, beta=9.0,
-                               depth_cap=2)
-    assert [t.depth for t in r.terminals] == [2]       # at the cap, yet admitted: terminals are not capped
+    r = bellman_novelty_search(
+        GraphModel(edges, 3), s0, GoalTask([goal]), TableValue(), budget=100, beta=9.0, depth_cap=2
+    )
+    assert [t.depth for t in r.terminals] == [2]  # at the cap, yet admitted: terminals are not capped
     assert r.stats.expansions == 2
 
 
@@ -232,17 +249,17 @@ def T(cost, v, depth=1, source="search"):
 def test_selection_honours_the_cost_bound():
     ts = [T(4, 0.0, source="reference"), T(5, 1.0), T(6, 2.0)]
     assert select_terminal(ts, 4, 1.0) == 0
-    assert select_terminal(ts, 4, 1.25) == 1            # 5 <= 1.25 * 4
+    assert select_terminal(ts, 4, 1.25) == 1  # 5 <= 1.25 * 4
     assert select_terminal(ts, 4, 1.5) == 2
     assert select_terminal([], 4, 2.0) is None
     assert select_terminal([T(9, 1.0)], 4, 2.0) is None  # nothing within the bound
 
 
 def test_selection_tie_breaks():
-    assert select_terminal([T(5, 1.0), T(4, 1.0)], 4, 2.0) == 1                    # V_AP tie: lower cost
+    assert select_terminal([T(5, 1.0), T(4, 1.0)], 4, 2.0) == 1  # V_AP tie: lower cost
     assert select_terminal([T(4, 1.0, depth=3), T(4, 1.0, depth=2)], 4, 2.0) == 1  # then smaller depth
     assert select_terminal([T(4, 1.0, depth=2), T(4, 1.0, depth=2)], 4, 2.0) == 0  # then discovery order
-    assert select_terminal([T(8, 1.5), T(4, 1.0)], 4, 2.0) == 0                    # V_AP first
+    assert select_terminal([T(8, 1.5), T(4, 1.0)], 4, 2.0) == 0  # V_AP first
 
 
 def test_reference_is_admitted_first_and_always_eligible():
@@ -250,8 +267,9 @@ def test_reference_is_admitted_first_and_always_eligible():
     s0, a, good, cheap = bits(0), bits(1), bits(2), bits(3)
     edges = {s0: [(1, a, 5), (2, cheap, 2)], a: [(3, good, 5)]}
     value = TableValue(v={good: 3.0, cheap: 1.0})
-    r = bellman_novelty_search(GraphModel(edges, 4), s0, GoalTask([good, cheap]), value, budget=100, beta=1.0,
-                               reference_plan=[1, 3])
+    r = bellman_novelty_search(
+        GraphModel(edges, 4), s0, GoalTask([good, cheap]), value, budget=100, beta=1.0, reference_plan=[1, 3]
+    )
     assert r.terminals[0].source == "reference" and r.stats.c_myo == 10
     assert r.plan == [1, 3] and r.stats.source == "reference" and r.stats.v_ap == 3.0
     assert r.stats.eligible == 2
@@ -280,9 +298,10 @@ def test_terminals_carry_their_fields_and_only_the_eligible_are_scored():
 def test_terminals_are_scored_after_consumption_in_one_batch():
     s0, x, y, x_after, y_after = bits(0), bits(1), bits(2), bits(3), bits(4)
     edges = {s0: [(1, x, 1), (2, y, 1)]}
-    value = TableValue(v={x: 9.0, x_after: 0.0, y: 0.0, y_after: 1.0})   # the consumed y is better prepared
-    r = bellman_novelty_search(GraphModel(edges, 5), s0, GoalTask([x, y], {x: x_after, y: y_after}), value,
-                               budget=10, beta=1.0)
+    value = TableValue(v={x: 9.0, x_after: 0.0, y: 0.0, y_after: 1.0})  # the consumed y is better prepared
+    r = bellman_novelty_search(
+        GraphModel(edges, 5), s0, GoalTask([x, y], {x: x_after, y: y_after}), value, budget=10, beta=1.0
+    )
     assert r.plan == [2] and r.stats.v_ap == 1.0
     assert value.v_batches == [[x_after, y_after]]
 
@@ -292,8 +311,8 @@ def test_children_are_valued_in_batches_and_only_if_pushed():
     value = TableValue()
     r = bellman_novelty_search(GraphModel(edges, n), 1, NEVER, value, budget=10, beta=1.0, prefetch=0)
     valued = [s for batch in value.q_batches for s in batch]
-    assert len(valued) == len(set(valued)) == r.stats.value_states   # each state valued once
-    assert all(len(b) >= 3 for b in value.q_batches[1:])              # a whole expansion's children per call
+    assert len(valued) == len(set(valued)) == r.stats.value_states  # each state valued once
+    assert all(len(b) >= 3 for b in value.q_batches[1:])  # a whole expansion's children per call
     assert r.stats.value_calls < r.stats.expansions
 
 
@@ -301,10 +320,11 @@ def test_bad_arguments():
     with pytest.raises(ValueError):
         bellman_novelty_search(GraphModel(SMALL, 4), R, NEVER, TableValue(), budget=1, beta=0.5)
     with pytest.raises(ValueError):
-        bellman_novelty_search(GraphModel(SMALL, 4), R, NEVER, object(), budget=1, beta=1.0)   # no gamma
-    with pytest.raises(ValueError):                      # a reference that does not complete the task
-        bellman_novelty_search(GraphModel(SMALL, 4), R, GoalTask([B]), TableValue(), budget=1, beta=1.0,
-                               reference_plan=[1])
+        bellman_novelty_search(GraphModel(SMALL, 4), R, NEVER, object(), budget=1, beta=1.0)  # no gamma
+    with pytest.raises(ValueError):  # a reference that does not complete the task
+        bellman_novelty_search(
+            GraphModel(SMALL, 4), R, GoalTask([B]), TableValue(), budget=1, beta=1.0, reference_plan=[1]
+        )
 
 
 def test_root_that_already_completes_the_task():
@@ -321,8 +341,10 @@ def replay(model, state, plan):
     return state, cost
 
 
-@pytest.mark.parametrize("name, optimal", [("clear(servingtable)", 300), ("pick-place(jar_0, servingtable)", 400),
-                                           ("pick-place(plate_0, fountain)", 450)])
+@pytest.mark.parametrize(
+    "name, optimal",
+    [("clear(servingtable)", 300), ("pick-place(jar_0, servingtable)", 400), ("pick-place(plate_0, fountain)", 450)],
+)
 def test_zero_value_finds_the_myopic_optimal_cost(two_room, name, optimal):
     m = two_room
     s, task = m.reset_state(2000), m.tasks.get(name)
@@ -346,12 +368,14 @@ def test_zero_value_with_the_reference_keeps_its_cost(two_room, name):
 
 def test_same_inputs_same_plan_with_the_q_network(two_room):
     from pathlib import Path
+
     ckpt = Path("checkpoints/rl-anticipatory-two-room-seed0.pt")
     if not ckpt.is_file():
         pytest.skip("no two-room checkpoint")
     torch = pytest.importorskip("torch")
     torch.set_num_threads(1)
     from learning.q.value import load_value_function
+
     m = two_room
     vf = load_value_function(ckpt, m)
     s, task = m.reset_state(2000), m.tasks.get("make-coffee(servingtable)")

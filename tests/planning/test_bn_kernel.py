@@ -8,6 +8,7 @@
 - identical choices: on the first tasks of sequence 0 of committed guided results (two-room and three-room),
   the search with the committed checkpoint picks exactly the committed plans.
 """
+
 import json
 from pathlib import Path
 
@@ -21,8 +22,9 @@ from planning.search.bellman_novelty_reference import bellman_novelty_search_ref
 from planning.search.optimal import optimal_plan, uniform_cost_search
 from planning.value import ZeroValue
 
-needs_kernel = pytest.mark.skipif(bn_kernel.lib() is None,
-                                  reason="no C compiler: the Python loop runs (it is the reference)")
+needs_kernel = pytest.mark.skipif(
+    bn_kernel.lib() is None, reason="no C compiler: the Python loop runs (it is the reference)"
+)
 
 
 def _checkpoint(layout: str) -> Path:
@@ -56,9 +58,27 @@ def test_compiled_successors_are_model_successors(restaurant):
 def _same(a, b):
     assert a.plan == b.plan
     assert [tuple(t) for t in a.terminals] == [tuple(t) for t in b.terminals]
-    for f in ("expansions", "bellman_expansions", "novelty_expansions", "forfeited", "stale", "novelty_skipped",
-              "novelty_dropped", "novelty_repushed", "generated", "nodes", "value_calls", "value_states",
-              "c_myo", "terminals", "eligible", "source", "v_ap", "cost", "depth"):
+    for f in (
+        "expansions",
+        "bellman_expansions",
+        "novelty_expansions",
+        "forfeited",
+        "stale",
+        "novelty_skipped",
+        "novelty_dropped",
+        "novelty_repushed",
+        "generated",
+        "nodes",
+        "value_calls",
+        "value_states",
+        "c_myo",
+        "terminals",
+        "eligible",
+        "source",
+        "v_ap",
+        "cost",
+        "depth",
+    ):
         assert getattr(a.stats, f) == getattr(b.stats, f), f
 
 
@@ -71,11 +91,18 @@ def test_c_loop_is_the_python_loop_with_the_zero_value(two_room, name):
     runs = []
     for kernel in ("c", "python"):
         trace = []
-        runs.append((bellman_novelty_search(m, s, task, ZeroValue(0.97), budget=1500, beta=1.25, reference_plan=ref,
-                                            trace=trace, kernel=kernel), trace))
+        runs.append(
+            (
+                bellman_novelty_search(
+                    m, s, task, ZeroValue(0.97), budget=1500, beta=1.25, reference_plan=ref, trace=trace, kernel=kernel
+                ),
+                trace,
+            )
+        )
     trace = []
-    old = bellman_novelty_search_reference(m, s, task, ZeroValue(0.97), budget=1500, beta=1.25, reference_plan=ref,
-                                           trace=trace)
+    old = bellman_novelty_search_reference(
+        m, s, task, ZeroValue(0.97), budget=1500, beta=1.25, reference_plan=ref, trace=trace
+    )
     (c, tc), (p, tp) = runs
     assert tc == tp == trace and len(tc) > 1500
     _same(c, p)
@@ -91,10 +118,10 @@ def test_c_loop_with_the_networks_python_value_is_the_reference_bit_for_bit(rest
         s, task = m.reset_state(seed), m.tasks.get(name)
         ref = optimal_plan(BatchedModel(m), s, task).plan
         ta, tb = [], []
-        a = bellman_novelty_search(m, s, task, values, budget=budget, beta=2.0, reference_plan=ref, trace=ta,
-                                   kernel="c", native_value=False)
-        b = bellman_novelty_search_reference(m, s, task, values, budget=budget, beta=2.0, reference_plan=ref,
-                                             trace=tb)
+        a = bellman_novelty_search(
+            m, s, task, values, budget=budget, beta=2.0, reference_plan=ref, trace=ta, kernel="c", native_value=False
+        )
+        b = bellman_novelty_search_reference(m, s, task, values, budget=budget, beta=2.0, reference_plan=ref, trace=tb)
         assert ta == tb
         _same(a, b)
 
@@ -105,11 +132,11 @@ def test_kernel_switches(two_room, monkeypatch):
     s, task = m.reset_state(3), m.tasks.get("wash(bowls)")
     with pytest.raises(ValueError):
         bellman_novelty_search(m, s, task, ZeroValue(1.0), budget=10, beta=1.0, kernel="fortran")
-    monkeypatch.setattr(bn_kernel, "_LIB", False)          # as with ANTICIPATORY_BN_NATIVE=0 or no compiler
+    monkeypatch.setattr(bn_kernel, "_LIB", False)  # as with ANTICIPATORY_BN_NATIVE=0 or no compiler
     with pytest.raises(RuntimeError):
         bellman_novelty_search(m, s, task, ZeroValue(1.0), budget=10, beta=1.0, kernel="c")
-    r = bellman_novelty_search(m, s, task, ZeroValue(1.0), budget=200, beta=1.0)       # the Python loop
-    assert r.stats.expansions == 200 and r.stats.value_calls > 1          # Python value calls: the Python loop ran
+    r = bellman_novelty_search(m, s, task, ZeroValue(1.0), budget=200, beta=1.0)  # the Python loop
+    assert r.stats.expansions == 200 and r.stats.value_calls > 1  # Python value calls: the Python loop ran
 
 
 # ---- the compiled value ----------------------------------------------------------------------------------
@@ -146,14 +173,16 @@ def test_compiled_value_does_not_depend_on_the_batch(restaurant, values):
     assert (fresh.q_max([states[i] for i in shuffled], task) == together[shuffled]).all()
     memo = NativeQ(values.batched, _qnet_lib(), memo=True)
     assert (memo.q_max(states[:50], task) == together[:50]).all()
-    assert (memo.q_max(states, task) == together).all()                 # 50 from the memo, 150 computed
+    assert (memo.q_max(states, task) == together).all()  # 50 from the memo, 150 computed
     assert memo.memo_stats()["hits"] == 50 and memo.memo_stats()["entries"] == len(states)
     assert (memo.v_ap(states[:20]) == fresh.v_ap(states[:20])).all()
 
 
 # ---- identical choices on committed results --------------------------------------------------------------
-COMMITTED = {"two-room": ("results/rl-guided-anticipatory-two-room-seed0.json", 0, 14),
-             "three-room": ("results/rl-guided-anticipatory-three-room-seed0.json", 1, 17)}
+COMMITTED = {
+    "two-room": ("results/rl-guided-anticipatory-two-room-seed0.json", 0, 14),
+    "three-room": ("results/rl-guided-anticipatory-three-room-seed0.json", 1, 17),
+}
 
 
 @needs_kernel
@@ -177,20 +206,31 @@ def test_the_search_picks_the_committed_plans(layout, request):
     saved = json.loads(Path(path).read_text())
     value = load_value_function(saved["config"]["checkpoint"], m)
     d = search_defaults(m)
-    assert (saved["config"]["beta"], saved["config"]["budget"], saved["config"]["depth_cap"]) == \
-        (d["beta"], d["budget"], d["depth_cap"])
+    assert (saved["config"]["beta"], saved["config"]["budget"], saved["config"]["depth_cap"]) == (
+        d["beta"],
+        d["budget"],
+        d["depth_cap"],
+    )
     rows = {r["index"]: r for r in saved["per_task"] if r["sequence"] == 0}
     seq = load(m, [0])[0]
     world, bm, checked = PersistentWorld(m, seq.reset_seed), BatchedModel(m), 0
-    for i, task in enumerate(seq.tasks[:last + 1]):
+    for i, task in enumerate(seq.tasks[: last + 1]):
         row = rows[i]
         if world.begin(task):
             assert row["auto"]
             continue
         if i >= first:
             ref = optimal_plan(bm, world.state, task)
-            r = bellman_novelty_search(m, world.state, task, value, budget=d["budget"], beta=d["beta"],
-                                       depth_cap=d["depth_cap"], reference_plan=ref.plan)
+            r = bellman_novelty_search(
+                m,
+                world.state,
+                task,
+                value,
+                budget=d["budget"],
+                beta=d["beta"],
+                depth_cap=d["depth_cap"],
+                reference_plan=ref.plan,
+            )
             assert [m.actions[a] for a in r.plan] == row["plan"], f"task {i} {task.name}"
             assert (r.stats.cost, r.stats.source, r.stats.c_myo) == (row["cost"], row["source"], row["c_myo"])
             checked += 1

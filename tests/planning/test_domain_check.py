@@ -1,5 +1,6 @@
 """The domain checker (planning.world.domain_check): its summary on the restaurant, one error line (file and line)
 on each of ten broken copies of the minimal domain, and warnings, not errors, for the silent defaults."""
+
 import shutil
 import sys
 from pathlib import Path
@@ -11,7 +12,7 @@ from planning.domain.compiler import compile_domain
 from planning.world import domain_check
 
 ROOT = Path(__file__).resolve().parents[2]
-DATA = Path("tests/data/check")          # relative, as a user types it (the tests run from the root)
+DATA = Path("tests/data/check")  # relative, as a user types it (the tests run from the root)
 
 
 def run_check(monkeypatch, capsys, *argv) -> tuple[int, list[str], list[str]]:
@@ -41,8 +42,10 @@ def test_summary_on_the_restaurant(monkeypatch, capsys):
         assert "2 reset entries (4 worlds)" in line
     assert "2 rooms (6 locations)" in out[0] and "3 rooms (7 locations)" in out[2]
     # serve-water from the start: walk to the shelf, the cup to the fountain, fill, to the table (thesis 1,475)
-    assert out[1].startswith("  myopic cost from the start state: serve-water 1,475; make-coffee 650; "
-                             "wash 0 (2 instances); clear 300; fruit-bowl 700; pick-place 0–600")
+    assert out[1].startswith(
+        "  myopic cost from the start state: serve-water 1,475; make-coffee 650; "
+        "wash 0 (2 instances); clear 300; fruit-bowl 700; pick-place 0–600"
+    )
     assert "pick-place 0–1,950" in out[3]
     assert out[-1] == "domains/restaurant: ok: 0 errors, 0 warnings"
 
@@ -59,7 +62,7 @@ def test_summary_object(monkeypatch):
     assert c.problems == []
 
 
-BROKEN = [   # folder under tests/data/check, the file and line the error names, what it says
+BROKEN = [  # folder under tests/data/check, the file and line the error names, what it says
     ("probabilities", "domain.toml", 52, "task type probabilities sum to 0.9, not 1"),
     ("unknown-object", "domain.toml", 58, "task deliver: unknown object 'z' for ?r"),
     ("no-schema", "domain.toml", 60, "task 'fetch' has no schema in tasks.pddl"),
@@ -86,8 +89,10 @@ def test_a_broken_folder_is_one_error_line(monkeypatch, capsys, name, file, line
 def test_the_consumption_domain_is_clean(monkeypatch, capsys):
     code, out, err = run_check(monkeypatch, capsys, DATA / "consumption")
     assert (code, err) == (0, [])
-    assert out[0] == ("mugs office: 9 atoms, 13 ground actions, 2 task instances of 1 type, 0 reset entries "
-                      "(1 world), 2 rooms (3 locations)")
+    assert out[0] == (
+        "mugs office: 9 atoms, 13 ground actions, 2 task instances of 1 type, 0 reset entries "
+        "(1 world), 2 rooms (3 locations)"
+    )
     assert out[1] == "  myopic cost from the start state: serve 5–6, mean 6 over P (2 instances)"
 
 
@@ -101,10 +106,12 @@ def copy_minimal(tmp_path, edit) -> Path:
 
 def test_silent_defaults_are_warnings(monkeypatch, capsys, tmp_path):
     """No [search], no [reward] cost_scale, a location left out of the rooms: three warnings, exit 0."""
+
     def edit(text):
-        text = text.split("[search]")[0]                                             # no [search]
+        text = text.split("[search]")[0]  # no [search]
         text = text.replace("cost_scale = 1            # PDDL cost units per RL reward unit\n", "")
-        return text.replace('"x3y4", "x4y4"] }', '"x3y4"] }')                         # x4y4 in no room
+        return text.replace('"x3y4", "x4y4"] }', '"x3y4"] }')  # x4y4 in no room
+
     folder = copy_minimal(tmp_path, edit)
     code, out, err = run_check(monkeypatch, capsys, folder)
     assert code == 0
@@ -118,8 +125,12 @@ def test_silent_defaults_are_warnings(monkeypatch, capsys, tmp_path):
 
 def test_search_per_layout_and_unknown_keys(monkeypatch, tmp_path):
     """A per-layout [search] value without the layout is an error; unknown tables and keys are warnings."""
-    folder = copy_minimal(tmp_path, lambda t: t.replace("beta = 3.0", "beta = { other = 3.0 }")
-                          .replace("[stream]", "[extras]\nx = 1\n\n[stream]\nmax_action = 64"))
+    folder = copy_minimal(
+        tmp_path,
+        lambda t: t.replace("beta = 3.0", "beta = { other = 3.0 }").replace(
+            "[stream]", "[extras]\nx = 1\n\n[stream]\nmax_action = 64"
+        ),
+    )
     monkeypatch.chdir(ROOT)
     c = domain_check.Checker(folder, costs=False).run()
     assert [p.message for p in c.errors] == ["[search] beta has no entry for layout 'grid'"]
@@ -143,8 +154,12 @@ def test_the_tools_say_where_they_take_a_silent_default(capsys, tmp_path):
     from planning.domain.compiler import compile_source
     from planning.domain.folder import read_domain
 
-    folder = copy_minimal(tmp_path, lambda t: t.split("[search]")[0].replace(
-        "cost_scale = 1            # PDDL cost units per RL reward unit\n", ""))
+    folder = copy_minimal(
+        tmp_path,
+        lambda t: t.split("[search]")[0].replace(
+            "cost_scale = 1            # PDDL cost units per RL reward unit\n", ""
+        ),
+    )
     model = compile_source(read_domain(folder, "grid"))
     capsys.readouterr()
     for _ in range(2):
@@ -152,10 +167,12 @@ def test_the_tools_say_where_they_take_a_silent_default(capsys, tmp_path):
         assert reward.cost_scale(model) == 1.0
     assert agent.beta == 1.0
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == [f"warning: {folder}/domain.toml: no [search] beta for layout grid: beta = 1.0, so the "
-                   "value-guided search plays exactly the myopic plan (set [search] beta, or pass --beta)",
-                   f"warning: {folder}/domain.toml: no [reward] cost_scale: 1 PDDL cost unit per reward unit "
-                   "(the rewards are -cost + R_goal; set [reward] cost_scale to scale them)"]
+    assert err == [
+        f"warning: {folder}/domain.toml: no [search] beta for layout grid: beta = 1.0, so the "
+        "value-guided search plays exactly the myopic plan (set [search] beta, or pass --beta)",
+        f"warning: {folder}/domain.toml: no [reward] cost_scale: 1 PDDL cost unit per reward unit "
+        "(the rewards are -cost + R_goal; set [reward] cost_scale to scale them)",
+    ]
     guided.ValueGuidedPlanner(model, "zero", beta=2.0)
     reward.cost_scale(compile_domain("domains/minimal", "grid"))
     assert capsys.readouterr().err == ""
@@ -163,11 +180,17 @@ def test_the_tools_say_where_they_take_a_silent_default(capsys, tmp_path):
 
 def test_per_layout_overrides_are_checked_as_the_layout_reads_them(monkeypatch, tmp_path):
     """[layouts.grid.tasks.deliver] narrows deliver to b for the grid: no warning, two task instances."""
-    folder = copy_minimal(tmp_path, lambda t: t.replace(
-        "\n[coordinates]", '\n[layouts.grid.tasks.deliver]\narguments = { "?r" = ["b"] }\n\n[coordinates]', 1))
+    folder = copy_minimal(
+        tmp_path,
+        lambda t: t.replace(
+            "\n[coordinates]", '\n[layouts.grid.tasks.deliver]\narguments = { "?r" = ["b"] }\n\n[coordinates]', 1
+        ),
+    )
     monkeypatch.chdir(ROOT)
     c = domain_check.Checker(folder).run()
     assert c.problems == []
     (s,) = c.summaries
     assert s.tasks == 2 and {t: [n for n, _, _ in inst] for t, inst in s.costs.items()} == {
-        "clear": ["clear(c)"], "deliver": ["deliver(b)"]}
+        "clear": ["clear(c)"],
+        "deliver": ["deliver(b)"],
+    }

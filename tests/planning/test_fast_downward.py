@@ -1,4 +1,5 @@
 """Fast Downward's plans replay in our simulator, reach the goal, and cost what it reports."""
+
 import numpy as np
 import pytest
 
@@ -22,7 +23,7 @@ def check_pairs(model, pairs, search):
     for state, task in pairs:
         r = fd.solve(model, state, task, time_limit=120, search=search)
         assert r.status == fd.Status.SOLVED, (task.name, r.message)
-        assert r.cost == fd.replay_cost(model, state, r.plan, task)   # reaches the goal
+        assert r.cost == fd.replay_cost(model, state, r.plan, task)  # reaches the goal
         assert r.optimal and optimal_plan(bm, state, task).cost == r.cost
         solved += 1
     return solved
@@ -49,7 +50,7 @@ def test_start_state_serve_water_costs_as_worked_out_by_hand(restaurant):
 def test_unsolvable_task_is_reported_not_crashed(minimal):
     held = minimal.state_from_atoms(["(robot-at x1y1)", "(holding apple)"])
     r = fd.solve(minimal, held, minimal.tasks.get("deliver(a)"), time_limit=30)
-    assert (r.status, r.cost) == (fd.Status.SOLVED, 3)     # two moves to a, place
-    stuck = minimal.state_from_atoms(["(robot-at x1y1)"])   # the apple is gone: no plan exists
+    assert (r.status, r.cost) == (fd.Status.SOLVED, 3)  # two moves to a, place
+    stuck = minimal.state_from_atoms(["(robot-at x1y1)"])  # the apple is gone: no plan exists
     r = fd.solve(minimal, stuck, minimal.tasks.get("deliver(a)"), time_limit=30)
     assert r.status == fd.Status.UNSOLVABLE and r.plan == []

@@ -2,6 +2,7 @@
 
 The searches build their heuristic from the row (planning.heuristics.build); the tests below count the calls
 of every row's built object to see that the row named is the one that ran, and nothing else."""
+
 import dataclasses
 
 import numpy as np
@@ -44,7 +45,7 @@ def test_multi_goal_labels_agree_with_blind(minimal, name):
 @pytest.mark.parametrize("name", list(HEURISTICS))
 def test_a_row_names_its_searches_and_falls_back_where_unsupported(minimal, two_room, name):
     for search in HEURISTICS[name].searches:
-        assert choose(name, two_room, search) == name              # the restaurant names its rooms
+        assert choose(name, two_room, search) == name  # the restaurant names its rooms
         fallback = choose(name, minimal, search)
         assert fallback in names(search)
     for search in {"task", "window", "multi-goal"} - set(HEURISTICS[name].searches):
@@ -76,10 +77,12 @@ def counted(monkeypatch):
     """Every row's builder wrapped: {row name: [(search, Counted or None), ...]} of what was built."""
     built: dict = {}
     for name, row in list(HEURISTICS.items()):
+
         def counting(bm, search, row=row):
             h = row.build(bm, search)
             built.setdefault(row.name, []).append((search, None if h is None else Counted(h)))
             return built[row.name][-1][1]
+
         monkeypatch.setitem(HEURISTICS, name, dataclasses.replace(row, build=counting))
     return built
 
@@ -98,14 +101,17 @@ def run_search(search: str, model, name: str):
     if search == "task":
         return optimal_plan(BatchedModel(model), s, model.tasks.get("deliver(a)"), heuristic=name).cost
     if search == "window":
-        return JointSearch(model, max_window=2).plan(s, [model.tasks.get("clear(c)"), model.tasks.get("deliver(b)")],
-                                                    heuristic=name).cost
+        return (
+            JointSearch(model, max_window=2)
+            .plan(s, [model.tasks.get("clear(c)"), model.tasks.get("deliver(b)")], heuristic=name)
+            .cost
+        )
     return [int(c) for c in Labeller(model, name).label(s).costs]
 
 
 @pytest.mark.parametrize("name,search", [(n, s) for n in HEURISTICS for s in HEURISTICS[n].searches])
 def test_the_row_named_is_the_heuristic_that_ran(minimal, counted, name, search):
-    assert choose(name, minimal, search) == name                   # the minimal grid names its rooms
+    assert choose(name, minimal, search) == name  # the minimal grid names its rooms
     cost = run_search(search, minimal, name)
     assert cost is not None
     built = [c for s, c in counted.get(name, []) if s == search]
@@ -115,16 +121,17 @@ def test_the_row_named_is_the_heuristic_that_ran(minimal, counted, name, search)
     assert {n for n in counted if calls(counted, n)} <= {name}, f"another row ran: {counted}"
 
 
-@pytest.mark.parametrize("name,search", [(n, s) for n in HEURISTICS for s in set(SEARCHES) - set(HEURISTICS[n].searches)])
+@pytest.mark.parametrize(
+    "name,search", [(n, s) for n in HEURISTICS for s in set(SEARCHES) - set(HEURISTICS[n].searches)]
+)
 def test_a_search_a_row_does_not_serve_is_refused_by_name(minimal, counted, name, search):
     with pytest.raises(DomainError, match=f"--heuristic: '{name}' is not one of"):
         run_search(search, minimal, name)
-    assert not any(calls(counted, n) for n in counted)             # nothing else ran in its place
+    assert not any(calls(counted, n) for n in counted)  # nothing else ran in its place
 
 
 @pytest.mark.parametrize("search", SEARCHES)
-def test_the_declared_stand_in_runs_where_pdb_is_unsupported_and_says_so(minimal, counted, monkeypatch, capsys,
-                                                                       search):
+def test_the_declared_stand_in_runs_where_pdb_is_unsupported_and_says_so(minimal, counted, monkeypatch, capsys, search):
     monkeypatch.setitem(HEURISTICS, "pdb", dataclasses.replace(HEURISTICS["pdb"], supports=lambda model: False))
     monkeypatch.setattr(heuristics, "_REPORTED", set())
     stand_in = HEURISTICS["pdb"].fallback[search]
@@ -136,8 +143,9 @@ def test_the_declared_stand_in_runs_where_pdb_is_unsupported_and_says_so(minimal
 
 @pytest.mark.parametrize("search", SEARCHES)
 def test_an_unsupported_row_without_a_stand_in_is_refused_by_name(minimal, counted, monkeypatch, search):
-    monkeypatch.setitem(HEURISTICS, "pdb", dataclasses.replace(HEURISTICS["pdb"], supports=lambda model: False,
-                                                               fallback={}))
+    monkeypatch.setitem(
+        HEURISTICS, "pdb", dataclasses.replace(HEURISTICS["pdb"], supports=lambda model: False, fallback={})
+    )
     with pytest.raises(DomainError, match="--heuristic: 'pdb' needs the locations"):
         run_search(search, minimal, "pdb")
     assert not any(calls(counted, n) for n in counted)
@@ -153,8 +161,9 @@ def test_a_new_row_runs_in_every_search_it_declares(minimal, monkeypatch):
         built.append((search, Counted(lambda batch, goals: np.zeros(len(batch), dtype=np.int64))))
         return built[-1][1]
 
-    monkeypatch.setitem(HEURISTICS, "zero", heuristics.Heuristic("zero", "0 everywhere, called", zero,
-                                                                 derived=SEARCHES))
+    monkeypatch.setitem(
+        HEURISTICS, "zero", heuristics.Heuristic("zero", "0 everywhere, called", zero, derived=SEARCHES)
+    )
     assert "zero" in names("task") and "zero" in names("window") and "zero" in names("multi-goal")
     for search, reference in (("task", "blind"), ("window", "hmax"), ("multi-goal", "blind")):
         assert run_search(search, minimal, "zero") == run_search(search, minimal, reference), search

@@ -1,4 +1,5 @@
 """Windows of tasks planned jointly (the clairvoyant oracle's problem): our search and Fast Downward agree."""
+
 import re
 
 import pytest
@@ -36,14 +37,16 @@ def test_window_of_one_is_the_single_task_problem(two_room, joint):
         assert joint.plan(state, [task]).cost == optimal_plan(bm, state, task).cost
 
 
-@pytest.mark.parametrize("names,cost", [(["make-coffee(servingtable)", "wash(bowls)"], 650),
-                                        (["clear(servingtable)", "pick-place(plate_0, shelf)"], 575)])
+@pytest.mark.parametrize(
+    "names,cost",
+    [(["make-coffee(servingtable)", "wash(bowls)"], 650), (["clear(servingtable)", "pick-place(plate_0, shelf)"], 575)],
+)
 def test_short_windows_match_fast_downward(two_room, joint, names, cost):
     state = two_room.reset_state(0)
     window = [two_room.tasks.get(n) for n in names]
     r = joint.plan(state, window)
     assert r.cost == cost == fast_downward_cost(two_room, state, window)
-    world = PersistentWorld(two_room)     # the plan completes both tasks in the persistent world
+    world = PersistentWorld(two_room)  # the plan completes both tasks in the persistent world
     world.state = state
     plan = iter(r.plan)
     for task in window:
@@ -65,15 +68,32 @@ def test_two_water_tasks_fetch_the_jar(two_room, joint, heuristic):
     assert "fill(jar_0, water_fountain, fountain)" in [two_room.actions[a] for a in r.plan]
 
 
-JAR_RUN = ["move(countertop, pantry)", "pick(jar_0, pantry)", "move(pantry, fountain)",
-           "fill(jar_0, water_fountain, fountain)", "move(fountain, servingtable)", "place(jar_0, servingtable)",
-           "move(servingtable, countertop)", "pick(cup_0, countertop)", "move(countertop, servingtable)"]
+JAR_RUN = [
+    "move(countertop, pantry)",
+    "pick(jar_0, pantry)",
+    "move(pantry, fountain)",
+    "fill(jar_0, water_fountain, fountain)",
+    "move(fountain, servingtable)",
+    "place(jar_0, servingtable)",
+    "move(servingtable, countertop)",
+    "pick(cup_0, countertop)",
+    "move(countertop, servingtable)",
+]
 REFILL = ["refill-water(cup_0, jar_0, servingtable)", "place(cup_0, servingtable)"]
-FIRST_FILL = ["pick(cup_0, countertop)", "move(countertop, fountain)", "fill(cup_0, water_fountain, fountain)",
-              "move(fountain, servingtable)", "place(cup_0, servingtable)"]
-REFILL_AT_FOUNTAIN = ["pick(cup_0, servingtable)", "move(servingtable, fountain)",
-                      "fill(cup_0, water_fountain, fountain)", "move(fountain, servingtable)",
-                      "place(cup_0, servingtable)"]
+FIRST_FILL = [
+    "pick(cup_0, countertop)",
+    "move(countertop, fountain)",
+    "fill(cup_0, water_fountain, fountain)",
+    "move(fountain, servingtable)",
+    "place(cup_0, servingtable)",
+]
+REFILL_AT_FOUNTAIN = [
+    "pick(cup_0, servingtable)",
+    "move(servingtable, fountain)",
+    "fill(cup_0, water_fountain, fountain)",
+    "move(fountain, servingtable)",
+    "place(cup_0, servingtable)",
+]
 
 
 def water_plans(n):
@@ -169,7 +189,7 @@ def test_clairvoyant_chain_that_meets_the_proven_bound_is_optimal(two_room, monk
     plate, cup = (two_room.tasks.get(n) for n in ["pick-place(plate_0, shelf)", "pick-place(cup_0, servingtable)"])
     info = oracle.plan(state, plate, [plate]).info
     assert info["bounded"] and info["optimal"] and info["window_cost"] == info["lower_bound"] == 575
-    info = oracle.plan(state, plate, [cup]).info            # the chain (1,000) is above the bound (775)
+    info = oracle.plan(state, plate, [cup]).info  # the chain (1,000) is above the bound (775)
     assert info["bounded"] and not info["optimal"] and (info["lower_bound"], info["window_cost"]) == (775, 1000)
 
 
@@ -192,10 +212,14 @@ def joint_states_along(joint, state, window, plan):
     return out
 
 
-@pytest.mark.parametrize("names,cost", [(["make-coffee(servingtable)", "wash(bowls)"], 650),
-                                        (["clear(servingtable)", "pick-place(plate_0, shelf)"], 575),
-                                        (["clear(servingtable)", "pick-place(plate_0, shelf)",
-                                          "pick-place(cup_0, servingtable)"], 1000)])
+@pytest.mark.parametrize(
+    "names,cost",
+    [
+        (["make-coffee(servingtable)", "wash(bowls)"], 650),
+        (["clear(servingtable)", "pick-place(plate_0, shelf)"], 575),
+        (["clear(servingtable)", "pick-place(plate_0, shelf)", "pick-place(cup_0, servingtable)"], 1000),
+    ],
+)
 def test_layered_relaxation_is_admissible_along_optimal_plans(two_room, joint, layered_lmcut, names, cost):
     # Exact costs by A* with LM-cut of the current stage alone, then the
     # layered LM-cut of every state on that optimal plan stays below the cost still to pay.
@@ -213,7 +237,6 @@ def test_layered_relaxation_is_admissible_along_optimal_plans(two_room, joint, l
             assert h <= exact.cost - g
 
 
-
 def test_saturated_window_partition_adds_disjoint_patterns_admissibly(two_room, joint):
     # With a budget that holds one object at a time, the three pick-places' patterns are disjoint:
     # alone the best says 575 at the start, partitioned (each rotation) they add to 775; every
@@ -221,8 +244,10 @@ def test_saturated_window_partition_adds_disjoint_patterns_admissibly(two_room, 
     from planning.heuristics.pdb import pattern_databases
 
     state = two_room.reset_state(0)
-    window = [two_room.tasks.get(n) for n in ["pick-place(plate_0, shelf)", "pick-place(cup_0, servingtable)",
-                                             "pick-place(cup_1, shelf)"]]
+    window = [
+        two_room.tasks.get(n)
+        for n in ["pick-place(plate_0, shelf)", "pick-place(cup_0, servingtable)", "pick-place(cup_1, shelf)"]
+    ]
     exact = joint.plan(state, window, heuristic="lmcut")
     assert exact.cost == 1125
     pdb = pattern_databases(two_room, joint.bm.n_words)
@@ -236,6 +261,7 @@ def test_saturated_window_partition_adds_disjoint_patterns_admissibly(two_room, 
             assert [value(p, rows) for p in estimates if len(p) > 1] == [775, 600, 525]
         for parts in estimates:
             assert value(parts, rows) <= exact.cost - g
+
 
 def test_layered_relaxation_sees_the_second_water(two_room, joint, layered_lmcut):
     # Per stage, LM-cut sees one water task (1450); layered over both: the first cup's water is
@@ -270,19 +296,26 @@ def test_weighted_search_is_bounded_and_its_lower_bound_holds(two_room, joint):
     water = two_room.tasks.get("serve-water(servingtable)")
     coffee = two_room.tasks.get("make-coffee(servingtable)")
     state = two_room.reset_state(0)
-    best = joint.plan(state, [water, coffee])                  # 2275, as Fast Downward (slow test)
+    best = joint.plan(state, [water, coffee])  # 2275, as Fast Downward (slow test)
     w = joint.plan(state, [water, coffee], weight=2)
     assert best.cost <= w.cost <= 2 * best.cost
     assert w.lower_bound <= best.cost == best.lower_bound
-    cut = joint.plan(state, [water, coffee], max_states=5)     # interrupted: a bound, no plan
+    cut = joint.plan(state, [water, coffee], max_states=5)  # interrupted: a bound, no plan
     assert cut.plan is None and not cut.complete and 0 < cut.lower_bound <= best.cost
 
 
-@pytest.mark.parametrize("names,cost", [
-    (["serve-water(servingtable)", "serve-water(servingtable)"], 2375),
-    pytest.param(["make-coffee(servingtable)", "wash(bowls)"], 650, marks=pytest.mark.slow),          # 1 min
-    pytest.param(["clear(servingtable)", "pick-place(plate_0, shelf)", "pick-place(cup_0, servingtable)"], 1000,
-                 marks=pytest.mark.slow)])
+@pytest.mark.parametrize(
+    "names,cost",
+    [
+        (["serve-water(servingtable)", "serve-water(servingtable)"], 2375),
+        pytest.param(["make-coffee(servingtable)", "wash(bowls)"], 650, marks=pytest.mark.slow),  # 1 min
+        pytest.param(
+            ["clear(servingtable)", "pick-place(plate_0, shelf)", "pick-place(cup_0, servingtable)"],
+            1000,
+            marks=pytest.mark.slow,
+        ),
+    ],
+)
 def test_window_pattern_databases_are_admissible_along_optimal_plans(two_room, joint, names, cost):
     # Every window pattern (the leading tasks' objects, each task's own, with neighbours) follows
     # all stages; along an optimal plan (costs checked above against Fast Downward, LM-cut and by

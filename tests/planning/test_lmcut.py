@@ -1,4 +1,5 @@
 """LM-cut: exact on tiny hand-built tasks, between h_max and the optimal cost on the restaurant."""
+
 import json
 from pathlib import Path
 from types import SimpleNamespace
@@ -39,8 +40,12 @@ def implementation(request, monkeypatch):
 def tiny(n_atoms, actions):
     """An LMCut over atoms 0..n-1 and actions [(pre atoms, add atoms, delete atoms, cost)]."""
     mask = lambda atoms: sum(1 << a for a in atoms)
-    model = SimpleNamespace(n_atoms=n_atoms, ops=[Op(mask(p), 0, mask(a), mask(d)) for p, a, d, _ in actions],
-                            op_action=list(range(len(actions))), action_cost=[c for *_, c in actions])
+    model = SimpleNamespace(
+        n_atoms=n_atoms,
+        ops=[Op(mask(p), 0, mask(a), mask(d)) for p, a, d, _ in actions],
+        op_action=list(range(len(actions))),
+        action_cost=[c for *_, c in actions],
+    )
     bm = _Bits(model)
     return LMCut(model, bm, HMax(model, bm)), HMax(model, bm)
 
@@ -68,15 +73,15 @@ def test_chains_negative_literals_and_dead_ends():
     n = 3
     assert h_of(lm, [1], [[2, n + 1]]) == 18
     assert h_of(lm, [0, 1], [[2, n + 1]]) == 16
-    assert h_of(lm, [], [[2, n + 1]]) == 12             # (not 1) already holds
+    assert h_of(lm, [], [[2, n + 1]]) == 12  # (not 1) already holds
     lm2, _ = tiny(3, [((), (0,), (), 2)])
-    assert h_of(lm2, [], [[2]]) == INF_64                # nothing adds atom 2
+    assert h_of(lm2, [], [[2]]) == INF_64  # nothing adds atom 2
 
 
 def test_a_disjunctive_goal_takes_the_cheaper_conjunction():
     lm, _ = tiny(3, [((), (0,), (), 3), ((), (1,), (), 4), ((), (2,), (), 9)])
     assert h_of(lm, [], [[0, 1], [2]]) == 7
-    assert h_of(lm, [], [[0, 1], [2], []]) == 0          # an empty conjunction always holds
+    assert h_of(lm, [], [[0, 1], [2], []]) == 0  # an empty conjunction always holds
 
 
 def test_start_state_values(restaurant):
@@ -99,7 +104,7 @@ def test_between_hmax_and_the_optimal_cost(two_room):
         a, b = hm(batch, goal), lm(batch, goal)
         assert (b >= a).all()
         stronger += int((b > a).sum())
-    assert stronger > 300                           # strictly above h_max on most of them
+    assert stronger > 300  # strictly above h_max on most of them
     rng = np.random.default_rng(5)
     cheap = [t for t in two_room.tasks if t.type in ("make-coffee", "clear", "wash", "pick-place")]
     compared = 0

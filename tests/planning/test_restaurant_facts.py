@@ -1,4 +1,5 @@
 """The facts of shared/restaurant.md, checked through the compiled model."""
+
 import numpy as np
 import pytest
 
@@ -7,9 +8,12 @@ from planning.world.task_stream import PersistentWorld
 from tests.conftest import run_plan
 
 HOPS = {
-    "countertop": [0, 1, 2, 1, 8, 9, 35], "coffeemachine": [1, 0, 1, 2, 7, 8, 35],
-    "dishwasher": [2, 1, 0, 3, 8, 9, 35], "shelf": [1, 2, 3, 0, 7, 8, 35],
-    "servingtable": [8, 7, 8, 7, 0, 2, 35], "fountain": [9, 8, 9, 8, 2, 0, 35],
+    "countertop": [0, 1, 2, 1, 8, 9, 35],
+    "coffeemachine": [1, 0, 1, 2, 7, 8, 35],
+    "dishwasher": [2, 1, 0, 3, 8, 9, 35],
+    "shelf": [1, 2, 3, 0, 7, 8, 35],
+    "servingtable": [8, 7, 8, 7, 0, 2, 35],
+    "fountain": [9, 8, 9, 8, 2, 0, 35],
     "pantry": [35] * 6 + [0],
 }
 LOCS = list(HOPS)
@@ -21,7 +25,7 @@ def cost(model, name):
 
 def test_specific_action_costs(three_room):
     m = three_room
-    assert cost(m, "move(countertop, fountain)") == 225          # kitchen -> fountain
+    assert cost(m, "move(countertop, fountain)") == 225  # kitchen -> fountain
     assert cost(m, "fill(cup_0, water_fountain, fountain)") == 1000
     assert cost(m, "refill-water(cup_0, jar_0, servingtable)") == 50
     assert cost(m, "pick(jar_0, pantry)") == 100
@@ -37,29 +41,55 @@ def test_specific_action_costs(three_room):
 def test_every_move_costs_25_per_hop(layout, n, two_room, three_room):
     m = two_room if layout == "two-room" else three_room
     moves = {m.actions[a]: m.action_cost[a] for a in range(m.n_actions) if m.action_schema[a] == "move"}
-    expected = {f"move({a}, {b})": 25 * HOPS[a][LOCS.index(b)]
-                for a in LOCS[:n] for b in LOCS[:n] if a != b}
-    assert moves == expected                                     # and no move to the same place
+    expected = {f"move({a}, {b})": 25 * HOPS[a][LOCS.index(b)] for a in LOCS[:n] for b in LOCS[:n] if a != b}
+    assert moves == expected  # and no move to the same place
 
 
 def test_action_schemas_and_counts(restaurant):
     schemas = {restaurant.action_schema[a] for a in range(restaurant.n_actions)}
-    assert schemas == {"move", "pick", "place", "wash", "fill", "drain", "pour",
-                       "make-coffee", "make-fruit-bowl", "refill-water"}
+    assert schemas == {
+        "move",
+        "pick",
+        "place",
+        "wash",
+        "fill",
+        "drain",
+        "pour",
+        "make-coffee",
+        "make-fruit-bowl",
+        "refill-water",
+    }
 
 
 def test_start_state(restaurant):
     m = restaurant
     jar = "shelf" if m.layout == "two-room" else "pantry"
-    expected = {("robot-at", "countertop"), ("hand-free",), ("at", "cup_0", "countertop"),
-                ("at", "cup_1", "dishwasher"), ("dirty", "cup_1"),
-                ("at", "water_fountain", "fountain"), ("at", "water_machine", "coffeemachine"),
-                ("at", "apple_0", "countertop"), ("at", "bowl_0", "countertop"),
-                ("at", "knife_0", "countertop"), ("at", "jar_0", jar),
-                ("at", "plate_0", "servingtable")}
+    expected = {
+        ("robot-at", "countertop"),
+        ("hand-free",),
+        ("at", "cup_0", "countertop"),
+        ("at", "cup_1", "dishwasher"),
+        ("dirty", "cup_1"),
+        ("at", "water_fountain", "fountain"),
+        ("at", "water_machine", "coffeemachine"),
+        ("at", "apple_0", "countertop"),
+        ("at", "bowl_0", "countertop"),
+        ("at", "knife_0", "countertop"),
+        ("at", "jar_0", jar),
+        ("at", "plate_0", "servingtable"),
+    }
     assert set(m.true_atoms(m.init)) == expected
-    assert m.objects[m.objects.index("cup_0"):] == ["cup_0", "cup_1", "water_fountain", "water_machine",
-                                                     "apple_0", "bowl_0", "knife_0", "jar_0", "plate_0"]
+    assert m.objects[m.objects.index("cup_0") :] == [
+        "cup_0",
+        "cup_1",
+        "water_fountain",
+        "water_machine",
+        "apple_0",
+        "bowl_0",
+        "knife_0",
+        "jar_0",
+        "plate_0",
+    ]
 
 
 @pytest.mark.parametrize("layout,count", [("two-room", 42), ("three-room", 48)])
@@ -70,8 +100,9 @@ def test_task_instantiations_and_probabilities(layout, count, two_room, three_ro
     by_type = {}
     for t in m.tasks:
         by_type[t.type] = by_type.get(t.type, 0) + t.probability
-    assert by_type == pytest.approx({"serve-water": 0.25, "make-coffee": 0.30, "wash": 0.30,
-                                     "clear": 0.05, "fruit-bowl": 0.05, "pick-place": 0.05})
+    assert by_type == pytest.approx(
+        {"serve-water": 0.25, "make-coffee": 0.30, "wash": 0.30, "clear": 0.05, "fruit-bowl": 0.05, "pick-place": 0.05}
+    )
     n_loc = 6 if layout == "two-room" else 7
     assert m.tasks.get("pick-place(jar_0, servingtable)").probability == pytest.approx(0.05 / 6 / n_loc)
     assert m.tasks.get("wash(knives)").probability == pytest.approx(0.15)
@@ -89,9 +120,16 @@ def test_sampling_follows_the_distribution(two_room):
 def test_serve_water_consumption_empties_first_cup_only(two_room):
     m = two_room
     t = m.tasks.get("serve-water(servingtable)")
-    s = m.state_from_atoms(["(robot-at servingtable)", "(hand-free)",
-                            "(at cup_0 servingtable)", "(has-water cup_0)",
-                            "(at cup_1 servingtable)", "(has-water cup_1)"])
+    s = m.state_from_atoms(
+        [
+            "(robot-at servingtable)",
+            "(hand-free)",
+            "(at cup_0 servingtable)",
+            "(has-water cup_0)",
+            "(at cup_1 servingtable)",
+            "(has-water cup_1)",
+        ]
+    )
     after = set(m.true_atoms(t.consume(s)))
     assert ("has-water", "cup_0") not in after and ("has-water", "cup_1") in after
     assert ("at", "cup_0", "servingtable") in after and ("dirty", "cup_0") not in after
@@ -100,8 +138,9 @@ def test_serve_water_consumption_empties_first_cup_only(two_room):
 def test_make_coffee_consumption_leaves_cup_dirty(two_room):
     m = two_room
     t = m.tasks.get("make-coffee(servingtable)")
-    s = m.state_from_atoms(["(robot-at servingtable)", "(hand-free)", "(at cup_1 servingtable)",
-                            "(has-coffee cup_1)", "(dirty cup_1)"])
+    s = m.state_from_atoms(
+        ["(robot-at servingtable)", "(hand-free)", "(at cup_1 servingtable)", "(has-coffee cup_1)", "(dirty cup_1)"]
+    )
     assert t.satisfied(s)
     after = set(m.true_atoms(t.consume(s)))
     assert {("at", "cup_1", "servingtable"), ("dirty", "cup_1")} <= after
@@ -111,20 +150,20 @@ def test_make_coffee_consumption_leaves_cup_dirty(two_room):
 def test_fruit_bowl_consumption_takes_apple_out(two_room):
     m = two_room
     t = m.tasks.get("fruit-bowl(servingtable)")
-    s = m.state_from_atoms(["(robot-at servingtable)", "(hand-free)", "(at bowl_0 servingtable)",
-                            "(in apple_0 bowl_0)", "(dirty bowl_0)"])
+    s = m.state_from_atoms(
+        ["(robot-at servingtable)", "(hand-free)", "(at bowl_0 servingtable)", "(in apple_0 bowl_0)", "(dirty bowl_0)"]
+    )
     after = set(m.true_atoms(t.consume(s)))
-    assert {("at", "apple_0", "servingtable"), ("at", "bowl_0", "servingtable"),
-            ("dirty", "bowl_0")} <= after
+    assert {("at", "apple_0", "servingtable"), ("at", "bowl_0", "servingtable"), ("dirty", "bowl_0")} <= after
     assert ("in", "apple_0", "bowl_0") not in after
 
 
 def test_goals_of_other_task_types(two_room):
     m = two_room
     s = m.init
-    assert not m.tasks.get("clear(servingtable)").satisfied(s)            # the plate is there
+    assert not m.tasks.get("clear(servingtable)").satisfied(s)  # the plate is there
     s2, _ = run_plan(m, s, ["move(countertop, servingtable)", "pick(plate_0, servingtable)"])
-    assert m.tasks.get("clear(servingtable)").satisfied(s2)               # held is not "at"
+    assert m.tasks.get("clear(servingtable)").satisfied(s2)  # held is not "at"
     clean = m.reset_state(3)
     assert m.tasks.get("wash(bowls)").satisfied(clean) != (("dirty", "bowl_0") in m.true_atoms(clean))
     assert m.tasks.get("pick-place(plate_0, servingtable)").satisfied(s)
@@ -143,20 +182,51 @@ def test_already_satisfied_task_completes_at_zero_cost(two_room):
 
 def test_reference_figures(three_room):
     m = three_room
-    _, fetch = run_plan(m, m.init, ["move(countertop, pantry)", "pick(jar_0, pantry)",
-                                    "move(pantry, fountain)", "fill(jar_0, water_fountain, fountain)",
-                                    "move(fountain, servingtable)", "place(jar_0, servingtable)"])
+    _, fetch = run_plan(
+        m,
+        m.init,
+        [
+            "move(countertop, pantry)",
+            "pick(jar_0, pantry)",
+            "move(pantry, fountain)",
+            "fill(jar_0, water_fountain, fountain)",
+            "move(fountain, servingtable)",
+            "place(jar_0, servingtable)",
+        ],
+    )
     assert fetch == 3000
-    s, direct = run_plan(m, m.init, ["pick(cup_0, countertop)", "move(countertop, fountain)",
-                                     "fill(cup_0, water_fountain, fountain)",
-                                     "move(fountain, servingtable)", "place(cup_0, servingtable)"])
+    s, direct = run_plan(
+        m,
+        m.init,
+        [
+            "pick(cup_0, countertop)",
+            "move(countertop, fountain)",
+            "fill(cup_0, water_fountain, fountain)",
+            "move(fountain, servingtable)",
+            "place(cup_0, servingtable)",
+        ],
+    )
     assert direct == 1475 and m.tasks.get("serve-water(servingtable)").satisfied(s)
-    jar_ready = m.state_from_atoms(["(robot-at countertop)", "(hand-free)", "(at cup_0 countertop)",
-                                    "(at jar_0 servingtable)", "(has-water jar_0)"])
-    s, with_jar = run_plan(m, jar_ready, ["pick(cup_0, countertop)", "move(countertop, servingtable)",
-                                          "refill-water(cup_0, jar_0, servingtable)",
-                                          "place(cup_0, servingtable)"])
-    assert with_jar == 450 and ("has-water", "jar_0") in m.true_atoms(s)   # the jar is not used up
+    jar_ready = m.state_from_atoms(
+        [
+            "(robot-at countertop)",
+            "(hand-free)",
+            "(at cup_0 countertop)",
+            "(at jar_0 servingtable)",
+            "(has-water jar_0)",
+        ]
+    )
+    s, with_jar = run_plan(
+        m,
+        jar_ready,
+        [
+            "pick(cup_0, countertop)",
+            "move(countertop, servingtable)",
+            "refill-water(cup_0, jar_0, servingtable)",
+            "place(cup_0, servingtable)",
+        ],
+    )
+    assert with_jar == 450 and ("has-water", "jar_0") in m.true_atoms(s)  # the jar is not used up
 
 
 def test_pour_water_restores_machine_water(two_room):
@@ -173,7 +243,7 @@ def test_make_coffee_uses_up_machine_water_and_needs_a_placed_vessel(two_room):
     m = two_room
     s, _ = run_plan(m, m.init, ["pick(cup_0, countertop)", "move(countertop, coffeemachine)"])
     make = m.action("make-coffee(cup_0, water_machine, coffeemachine)")
-    assert not m.is_applicable(s, make)                   # held, not placed
+    assert not m.is_applicable(s, make)  # held, not placed
     s, _ = run_plan(m, s, ["place(cup_0, coffeemachine)", "make-coffee(cup_0, water_machine, coffeemachine)"])
     atoms = set(m.true_atoms(s))
     assert {("has-coffee", "cup_0"), ("dirty", "cup_0")} <= atoms
@@ -184,10 +254,8 @@ def test_make_coffee_uses_up_machine_water_and_needs_a_placed_vessel(two_room):
 
 def test_apple_travels_inside_the_bowl(two_room):
     m = two_room
-    s = m.state_from_atoms(["(robot-at countertop)", "(hand-free)", "(at bowl_0 countertop)",
-                            "(in apple_0 bowl_0)"])
-    s, _ = run_plan(m, s, ["pick(bowl_0, countertop)", "move(countertop, servingtable)",
-                           "place(bowl_0, servingtable)"])
+    s = m.state_from_atoms(["(robot-at countertop)", "(hand-free)", "(at bowl_0 countertop)", "(in apple_0 bowl_0)"])
+    s, _ = run_plan(m, s, ["pick(bowl_0, countertop)", "move(countertop, servingtable)", "place(bowl_0, servingtable)"])
     assert m.tasks.get("fruit-bowl(servingtable)").satisfied(s)
     assert "pick(apple_0, servingtable)" not in [m.actions[a] for a in m.applicable(s)]
 
@@ -206,13 +274,17 @@ def test_world_reset_randomness(two_room):
 def test_factored_actions_follow_table_a1(three_room):
     f = factored_actions(three_room)
     assert f.heads == ["type", "thing1", "location", "thing2"]
-    assert [len(v) for v in f.vocab] == [10, 10, 8, 10]      # O + 1 and L + 1 with the none slots
+    assert [len(v) for v in f.vocab] == [10, 10, 8, 10]  # O + 1 and L + 1 with the none slots
     label = lambda name: f.label(three_room.action(name))
     assert label("move(countertop, pantry)") == ("move", "none", "pantry", "none")
     assert label("place(cup_0, servingtable)") == ("place", "none", "servingtable", "none")
     assert label("pour(cup_0, water_machine, coffeemachine)") == ("pour", "cup_0", "none", "none")
-    assert label("make-fruit-bowl(apple_0, bowl_0, knife_0, countertop)") == \
-        ("make-fruit-bowl", "apple_0", "none", "bowl_0")
+    assert label("make-fruit-bowl(apple_0, bowl_0, knife_0, countertop)") == (
+        "make-fruit-bowl",
+        "apple_0",
+        "none",
+        "bowl_0",
+    )
     assert label("refill-water(cup_1, jar_0, fountain)") == ("refill-water", "cup_1", "none", "jar_0")
 
 

@@ -1,4 +1,5 @@
 """The exact searches agree with each other and with hand-checked optimal costs."""
+
 import numpy as np
 import pytest
 
@@ -33,6 +34,7 @@ def test_one_search_for_many_goals_gives_each_its_optimal_plan(two_room):
     """optimal_plans: a task with each of several clauses, one A*: every cost is the single search's, every
     plan reaches its goal at that cost, and a goal that is never reached has no plan."""
     from learning.gnn.dataset import ClauseLibrary, JointGoal
+
     bm = BatchedModel(two_room)
     library = ClauseLibrary(two_room, 0)
     task = two_room.tasks.get("make-coffee(servingtable)")
@@ -40,7 +42,7 @@ def test_one_search_for_many_goals_gives_each_its_optimal_plan(two_room):
     together = optimal_plans(bm, two_room.init, goals)
     alone = [optimal_plan(bm, two_room.init, g) for g in goals]
     assert [r.cost for r in together] == [r.cost for r in alone] and all(r.cost is not None for r in alone)
-    assert len({r.cost for r in alone}) > 1                     # goals at different depths: the rescoring path
+    assert len({r.cost for r in alone}) > 1  # goals at different depths: the rescoring path
     for g, r in zip(goals, together):
         assert replay_cost(two_room, two_room.init, r.plan, g) == r.cost
     tried = []
@@ -54,7 +56,7 @@ def test_hmax_is_admissible_on_the_start_state(three_room):
     bm = BatchedModel(three_room)
     h = HMax(three_room, bm)
     task = three_room.tasks.get("serve-water(servingtable)")
-    assert h(bm.pack([three_room.init]), goal_literals(three_room, task))[0] == 1225   # pick 100 | move 225, fill 1000
+    assert h(bm.pack([three_room.init]), goal_literals(three_room, task))[0] == 1225  # pick 100 | move 225, fill 1000
 
 
 def test_unreachable_goal_has_no_plan(minimal):

@@ -1,4 +1,5 @@
 """The compiled simulator: single and batched paths agree, errors leave states untouched."""
+
 import numpy as np
 import pytest
 
@@ -10,11 +11,19 @@ from planning.errors import DomainError
 def test_initial_successors(two_room):
     m = two_room
     names = sorted(m.actions[a] for a in m.applicable(m.init))
-    assert names == sorted(["move(countertop, coffeemachine)", "move(countertop, dishwasher)",
-                            "move(countertop, shelf)", "move(countertop, servingtable)",
-                            "move(countertop, fountain)", "pick(cup_0, countertop)",
-                            "pick(apple_0, countertop)", "pick(bowl_0, countertop)",
-                            "pick(knife_0, countertop)"])
+    assert names == sorted(
+        [
+            "move(countertop, coffeemachine)",
+            "move(countertop, dishwasher)",
+            "move(countertop, shelf)",
+            "move(countertop, servingtable)",
+            "move(countertop, fountain)",
+            "pick(cup_0, countertop)",
+            "pick(apple_0, countertop)",
+            "pick(bowl_0, countertop)",
+            "pick(knife_0, countertop)",
+        ]
+    )
     for a, nxt, c in m.successors(m.init):
         assert nxt == m.apply(m.init, a) and c == m.action_cost[a]
 
@@ -67,7 +76,7 @@ def test_state_printout(two_room):
 
 def test_unknown_atom_is_an_error(two_room):
     with pytest.raises(DomainError, match=r"\(at jar_0 pantry\) is not a reachable fluent atom"):
-        two_room.state_from_atoms(["(at jar_0 pantry)"])     # no pantry in the two-room layout
+        two_room.state_from_atoms(["(at jar_0 pantry)"])  # no pantry in the two-room layout
 
 
 def test_states_are_compact_and_hashable(three_room):
@@ -79,9 +88,10 @@ def test_states_are_compact_and_hashable(three_room):
 def test_disjunctive_precondition_gives_one_ground_action(two_room):
     m = two_room
     pour = m.action("pour(cup_0, water_machine, coffeemachine)")
-    assert m.op_action.count(pour) == 2                   # (or has-water has-coffee)
-    s = m.state_from_atoms(["(robot-at coffeemachine)", "(holding cup_0)", "(has-water cup_0)",
-                            "(has-coffee cup_0)"])        # both disjuncts (unreachable, but legal)
+    assert m.op_action.count(pour) == 2  # (or has-water has-coffee)
+    s = m.state_from_atoms(
+        ["(robot-at coffeemachine)", "(holding cup_0)", "(has-water cup_0)", "(has-coffee cup_0)"]
+    )  # both disjuncts (unreachable, but legal)
     assert [a for a, _, _ in m.successors(s)].count(pour) == 1
     bm = BatchedModel(m)
     _, action, _, _ = bm.successors(bm.pack([s]))

@@ -1,4 +1,5 @@
 """The persistent world's accounting: budget, abandonment, consumption, resets."""
+
 import pytest
 
 from planning.errors import DomainError
@@ -33,7 +34,7 @@ def test_success_applies_consumption(two_room):
     assert steps[-1].completed and world.outcomes[-1].cost == START_COSTS[task.name] and world.outcomes[-1].success
     atoms = set(m.true_atoms(world.state))
     assert ("at", "cup_0", "servingtable") in atoms and ("has-water", "cup_0") not in atoms
-    assert not task.satisfied(world.state)                 # needs real preparation again
+    assert not task.satisfied(world.state)  # needs real preparation again
 
 
 def test_inapplicable_action_leaves_world_unchanged(two_room):

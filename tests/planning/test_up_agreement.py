@@ -1,4 +1,5 @@
 """Our applicable actions and successors equal unified-planning's SequentialSimulator's."""
+
 import pytest
 from unified_planning.shortcuts import SequentialSimulator
 
@@ -6,13 +7,19 @@ from planning.external.simulator_bench import reachable_states
 from planning.external.up_bridge import UPStates, action_name, up_problem
 
 
-@pytest.mark.parametrize("domain,layout,n", [("domains/restaurant", "two-room", 500),
-                                              ("domains/restaurant", "three-room", 500),
-                                              ("domains/minimal", "grid", 60)])
+@pytest.mark.parametrize(
+    "domain,layout,n",
+    [
+        ("domains/restaurant", "two-room", 500),
+        ("domains/restaurant", "three-room", 500),
+        ("domains/minimal", "grid", 60),
+    ],
+)
 def test_random_walks_agree_with_unified_planning(domain, layout, n):
     from planning.domain.compiler import compile_domain
+
     m = compile_domain(domain, layout)
-    states = reachable_states(m, n, seed=11)       # distinct states along random walks
+    states = reachable_states(m, n, seed=11)  # distinct states along random walks
     assert len(set(states)) >= n
     problem = up_problem(m)
     with SequentialSimulator(problem=problem) as sim:

@@ -8,6 +8,7 @@ real values (DIR a fresh folder, CKPT a committed checkpoint); `[optional parts]
 and, where they need no placeholder, with them. A README command that this table does not classify
 fails the test, so a new command cannot go unchecked.
 """
+
 import os
 import re
 import shlex
@@ -23,28 +24,46 @@ pytestmark = pytest.mark.smoke
 ROOT = Path(__file__).resolve().parents[2]
 START_SECONDS = 25
 
-QUICK = {          # committed results are kept, or the command is cheap: must finish with exit 0
-    "planning.world.sequences", "oracles.myopic", "oracles.clairvoyant", "oracles.labelling",
-    "experiments.evaluate", "experiments.reproduce", "planning.world.domain_check",
+QUICK = {  # committed results are kept, or the command is cheap: must finish with exit 0
+    "planning.world.sequences",
+    "oracles.myopic",
+    "oracles.clairvoyant",
+    "oracles.labelling",
+    "experiments.evaluate",
+    "experiments.reproduce",
+    "planning.world.domain_check",
 }
-LONG = {           # must start cleanly
-    "experiments.demo", "oracles.rollouts", "experiments.calibrate", "learning.gnn_dataset",
-    "learning.dqn", "experiments.minimal_example", "planning.external.simulator_bench", "oracles.planner_bench",
-    "oracles.labelling_bench", "learning.q.bench", "learning.agents.bench_bn", "experiments.select_beta",
+LONG = {  # must start cleanly
+    "experiments.demo",
+    "oracles.rollouts",
+    "experiments.calibrate",
+    "learning.gnn_dataset",
+    "learning.dqn",
+    "experiments.minimal_example",
+    "planning.external.simulator_bench",
+    "oracles.planner_bench",
+    "oracles.labelling_bench",
+    "learning.q.bench",
+    "learning.agents.bench_bn",
+    "experiments.select_beta",
     "experiments.sweep",
 }
-NEEDS_A_RUN = {    # their input is what another command makes over hours: checked on a missing input instead
+NEEDS_A_RUN = {  # their input is what another command makes over hours: checked on a missing input instead
     "learning.export": "a finished training run (python -m learning.dqn makes one in about two hours)",
     "learning.gnn_train": "a labelled dataset (python -m learning.gnn_dataset)",
     "learning.gnn.bench": "a labelled dataset (python -m learning.gnn_dataset)",
     "learning.values.rank": "a labelled dataset (python -m learning.gnn_dataset)",
 }
-NOT_HERE = ("--ray",)   # a Ray cluster's commands (`ray start --head` first): not run on a CI machine
-QUICK_ONLY_WITH = {"experiments.reproduce": "--report-only"}   # without it, it plays whatever is missing first
+NOT_HERE = ("--ray",)  # a Ray cluster's commands (`ray start --head` first): not run on a CI machine
+QUICK_ONLY_WITH = {"experiments.reproduce": "--report-only"}  # without it, it plays whatever is missing first
 SPEC_COMMANDS = [
-    "python -m oracles.myopic", "python -m oracles.clairvoyant --K 3", "python -m oracles.labelling",
-    "python -m learning.gnn_dataset", "python -m learning.gnn_dataset --augmented",
-    "python -m learning.dqn --horizon myopic", "python -m learning.dqn --horizon anticipatory",
+    "python -m oracles.myopic",
+    "python -m oracles.clairvoyant --K 3",
+    "python -m oracles.labelling",
+    "python -m learning.gnn_dataset",
+    "python -m learning.gnn_dataset --augmented",
+    "python -m learning.dqn --horizon myopic",
+    "python -m learning.dqn --horizon anticipatory",
     "python -m experiments.evaluate --agent rl-greedy --checkpoint checkpoints/rl-anticipatory-two-room-seed0.pt",
 ]
 
@@ -86,8 +105,12 @@ def concrete(cmd: str, tmp: Path) -> list[str]:
 def fresh(tmp_path_factory) -> Path:
     """The checkout's tracked and unignored files, copied as a fresh clone has them."""
     dst = tmp_path_factory.mktemp("clone") / "checkout"
-    files = subprocess.run(["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"], cwd=ROOT,
-                           capture_output=True, check=True).stdout.split(b"\0")
+    files = subprocess.run(
+        ["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
+        cwd=ROOT,
+        capture_output=True,
+        check=True,
+    ).stdout.split(b"\0")
     for name in filter(None, files):
         src = ROOT / name.decode()
         if src.is_file():
@@ -122,8 +145,9 @@ def test_command_as_written(cmd, fresh, tmp_path):
         assert r.returncode == 2 and len(lines) == 1 and lines[0].startswith("error:"), r.stderr[-800:]
         return
     quick = module in QUICK and QUICK_ONLY_WITH.get(module, "") in cmd
-    proc = subprocess.Popen(argv, cwd=fresh, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
-                            start_new_session=True)
+    proc = subprocess.Popen(
+        argv, cwd=fresh, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, start_new_session=True
+    )
     try:
         out, err = proc.communicate(timeout=600 if quick else START_SECONDS)
     except subprocess.TimeoutExpired:
