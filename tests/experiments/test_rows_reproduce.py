@@ -46,6 +46,8 @@ def command_of(name: str, out: Path) -> list[str]:
             skip = drop[a]
         else:
             kept.append(a)
+    if "gnn-native" in kept:  # a fresh candidate cache, whatever runs/ holds here
+        kept += ["--candidates", str(out.with_suffix(".candidates.jsonl"))]
     return [sys.executable, "-m", "experiments.evaluate", *kept, "--sequences", "0", "--out", str(out), "--no-progress"]
 
 
