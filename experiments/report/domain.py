@@ -23,12 +23,10 @@ import re
 import time
 from pathlib import Path
 
-from experiments import stats
-from experiments.report import provenance
+from experiments.report import provenance, tables
 from experiments.report.data import ALL, DEVELOPMENT, HELD_OUT, improvement, load_rows
 from experiments.report.specs import HORIZONS, Row, Run
 from experiments.report.tables import (
-    MISSING,
     SHARE_TEXT,
     dagger,
     files_cell,
@@ -300,55 +298,6 @@ def clairvoyant_share(results: dict) -> list[str]:
     return table(["layout", "method", "improvement", *(f"share of K = {K} saving" for K in CLAIRVOYANT_K)], body)
 
 
-def statistics(results: dict) -> list[str]:
-    body = []
-    for layout, rows_ in results.items():
-        for a, b in COMPARISONS:
-            if a not in rows_ or b not in rows_:
-                continue
-            ra, rb = rows_[a], rows_[b]
-            label = f"{ra.row.label} vs {rb.row.label}"
-            for split, ids in (("all ten", ALL), ("held-out seven", HELD_OUT)):
-                if not ra.used or not rb.used:
-                    missing = " and ".join(r.row.label for r in (ra, rb) if not r.used)
-                    body.append([layout, label, split, f"not run ({missing}: {MISSING})", "—", "—", "—", "—"])
-                    continue
-                res = stats.compare(ra.used, rb.used, ids)
-                w, t = res["wilcoxon"], res["welch"]
-                wil = f"W = {w['statistic']:g}, p = {w['p']:.4g}" if "p" in w else w["reason"]
-                welch = (
-                    f"t({t['df']:.1f}) = {t['t']:.2f}, p = {t['p']:.3g}; 95% CI "
-                    f"{pct(t['ci'][0], 1, False)} to {pct(t['ci'][1], 1, False)}"
-                    if "t" in t
-                    else t["reason"]
-                )
-                body.append(
-                    [
-                        layout,
-                        label + (dagger(ra) or dagger(rb)),
-                        split,
-                        f"{w['a_cheaper']} of {w['n']}",
-                        wil,
-                        pct(t["reduction"]) if t.get("reduction") is not None else "—",
-                        welch,
-                        f"{t['n_a']} / {t['n_b']}",
-                    ]
-                )
-    return table(
-        [
-            "layout",
-            "A vs B",
-            "sequences",
-            "A cheaper on",
-            "Wilcoxon (exact, two-sided)",
-            "reduction 1 − A/B (seed means)",
-            "Welch's t across seeds",
-            "seeds A / B",
-        ],
-        body,
-    )
-
-
 def sequences_note(ctx, layouts) -> list[str]:
     """One line per layout without its canonical sequences (no row can be played there yet)."""
     out = []
@@ -416,7 +365,7 @@ def report(layouts, ctx, command: str) -> str:
         "Over sequences: each sequence's cost per task averaged over a row's seeds, paired by sequence, exact "
         "two-sided Wilcoxon signed-rank test. Across seeds: Welch's t and the 95% interval of the reduction.",
         "",
-        *statistics(results),
+        *tables.statistics(results, COMPARISONS, thesis=False),
         "",
         "## Not applicable to this domain",
         "",

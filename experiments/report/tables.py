@@ -351,18 +351,22 @@ def _thesis_share(layout: str, key: str) -> str:
 
 
 # ---- statistics (§5.4.3) --------------------------------------------------------------------
-def statistics(results: dict) -> list[str]:
+def statistics(results: dict, comparisons=COMPARISONS, thesis: bool = True) -> list[str]:
+    """The §5.4.3 tests of each pair (A against B) both of whose rows a layout has: Wilcoxon over
+    sequences, Welch across seed means; with `thesis`, the thesis's figures beside ours."""
     body = []
     for layout, rows in results.items():
-        for a, b in COMPARISONS:
+        for a, b in comparisons:
+            if a not in rows or b not in rows:
+                continue
             ra, rb = rows[a], rows[b]
             label = f"{ra.row.label} vs {rb.row.label}"
             for split, ids in (("all ten", ALL), ("held-out seven", HELD_OUT)):
                 th = THESIS_STATS.get((layout, a, b), {}).get("all" if split == "all ten" else "held-out", {})
-                thesis = _thesis_stats(th)
+                theirs = [_thesis_stats(th)] if thesis else []
                 if not ra.used or not rb.used:
                     missing = " and ".join(r.row.label for r in (ra, rb) if not r.used)
-                    body.append([layout, label, split, f"not run ({missing}: {MISSING})", "—", "—", "—", "—", thesis])
+                    body.append([layout, label, split, f"not run ({missing}: {MISSING})", "—", "—", "—", "—", *theirs])
                     continue
                 res = stats.compare(ra.used, rb.used, ids)
                 w, t = res["wilcoxon"], res["welch"]
@@ -373,34 +377,30 @@ def statistics(results: dict) -> list[str]:
                     if "t" in t
                     else t["reason"]
                 )
-                flag = dagger(ra) or dagger(rb)
                 body.append(
                     [
                         layout,
-                        label + flag,
+                        label + (dagger(ra) or dagger(rb)),
                         split,
                         f"{w['a_cheaper']} of {w['n']}",
                         wil,
                         pct(t["reduction"]) if t.get("reduction") is not None else "—",
                         welch,
                         f"{t['n_a']} / {t['n_b']}",
-                        thesis,
+                        *theirs,
                     ]
                 )
-    return table(
-        [
-            "layout",
-            "A vs B",
-            "sequences",
-            "A cheaper on",
-            "Wilcoxon (exact, two-sided)",
-            "reduction 1 − A/B (seed means)",
-            "Welch's t across seeds",
-            "seeds A / B",
-            "thesis",
-        ],
-        body,
-    )
+    header = [
+        "layout",
+        "A vs B",
+        "sequences",
+        "A cheaper on",
+        "Wilcoxon (exact, two-sided)",
+        "reduction 1 − A/B (seed means)",
+        "Welch's t across seeds",
+        "seeds A / B",
+    ]
+    return table(header + (["thesis"] if thesis else []), body)
 
 
 def _thesis_stats(th: dict) -> str:
