@@ -34,3 +34,31 @@ def run_plan(model, state: int, names: list[str]) -> tuple[int, int]:
         state = model.apply(state, a)
         cost += model.action_cost[a]
     return state, cost
+
+
+@pytest.fixture(scope="module")
+def checkpoint(minimal, tmp_path_factory):
+    """A tiny untrained Q-network checkpoint of the minimal grid (anticipatory, γ 0.99)."""
+    from learning.encoding import Encoding
+    from learning.q.checkpoints import network_payload, save_checkpoint
+    from learning.q.network import build_network
+
+    enc = Encoding(minimal)
+    path = tmp_path_factory.mktemp("ckpt") / "rl-anticipatory-grid-seed0.pt"
+    payload = network_payload(
+        build_network(enc, 16), enc, {"step": 1, "config": {"gamma": 0.99, "horizon": "anticipatory"}}
+    )
+    return str(save_checkpoint(path, payload))
+
+
+@pytest.fixture(scope="module")
+def gnn(minimal, tmp_path_factory):
+    """A tiny untrained GNN checkpoint with the minimal grid's node features."""
+    from learning.gnn.graph import GraphEncoder
+    from learning.gnn.model import GNNCostModel, save_gnn_checkpoint
+
+    names = GraphEncoder(minimal).feature_names
+    net = GNNCostModel(len(names), width=8)
+    path = tmp_path_factory.mktemp("gnn") / "gnn-grid-seed0.pt"
+    payload = {"model": net.state_dict(), "dims": net.dims, "feature_names": names, "layout": minimal.layout}
+    return str(save_gnn_checkpoint(path, payload))

@@ -13,41 +13,6 @@ from planning.world.runner import play_sequence
 from planning.world.sequences import Sequence
 from planning.world.task_stream import draw_tasks
 
-
-@pytest.fixture(scope="module")
-def checkpoint(minimal, tmp_path_factory):
-    from learning.encoding import Encoding
-    from learning.q.checkpoints import network_payload, save_checkpoint
-    from learning.q.network import build_network
-
-    enc = Encoding(minimal)
-    path = tmp_path_factory.mktemp("ckpt") / "rl-anticipatory-grid-seed0.pt"
-    return str(
-        save_checkpoint(
-            path,
-            network_payload(
-                build_network(enc, 16), enc, {"step": 1, "config": {"gamma": 0.99, "horizon": "anticipatory"}}
-            ),
-        )
-    )
-
-
-@pytest.fixture(scope="module")
-def gnn(minimal, tmp_path_factory):
-    """A tiny untrained GNN checkpoint with the grid's node features."""
-    from learning.gnn.graph import GraphEncoder
-    from learning.gnn.model import GNNCostModel, save_gnn_checkpoint
-
-    names = GraphEncoder(minimal).feature_names
-    net = GNNCostModel(len(names), width=8)
-    path = tmp_path_factory.mktemp("gnn") / "gnn-grid-seed0.pt"
-    return str(
-        save_gnn_checkpoint(
-            path, {"model": net.state_dict(), "dims": net.dims, "feature_names": names, "layout": minimal.layout}
-        )
-    )
-
-
 ARGS = {
     "rl-greedy": ["--checkpoint", "{ckpt}"],
     "rl-guided": ["--checkpoint", "{ckpt}", "--budget", "50"],

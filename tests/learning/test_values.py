@@ -22,39 +22,6 @@ from planning.world.sequences import Sequence, generate
 ROOT = Path(__file__).resolve().parents[2]
 
 
-@pytest.fixture(scope="module")
-def checkpoint(minimal, tmp_path_factory):
-    from learning.encoding import Encoding
-    from learning.q.checkpoints import network_payload, save_checkpoint
-    from learning.q.network import build_network
-
-    enc = Encoding(minimal)
-    path = tmp_path_factory.mktemp("ckpt") / "rl-anticipatory-grid-seed0.pt"
-    return str(
-        save_checkpoint(
-            path,
-            network_payload(
-                build_network(enc, 16), enc, {"step": 1, "config": {"gamma": 0.99, "horizon": "anticipatory"}}
-            ),
-        )
-    )
-
-
-@pytest.fixture(scope="module")
-def gnn(minimal, tmp_path_factory):
-    from learning.gnn.graph import GraphEncoder
-    from learning.gnn.model import GNNCostModel, save_gnn_checkpoint
-
-    names = GraphEncoder(minimal).feature_names
-    net = GNNCostModel(len(names), width=8)
-    path = tmp_path_factory.mktemp("gnn") / "gnn-grid-seed0.pt"
-    return str(
-        save_gnn_checkpoint(
-            path, {"model": net.state_dict(), "dims": net.dims, "feature_names": names, "layout": minimal.layout}
-        )
-    )
-
-
 def guided(name, argv, model):
     """The agent experiments.evaluate builds from `--agent name argv`."""
     cls = agent_class(name)
