@@ -40,12 +40,14 @@ def split_costs(model, result: dict) -> dict:
             continue
         tasks = sum(s["tasks"] for s in seqs)
         cost = sum(s["cost"] for s in seqs) / tasks
+        imp, why = improvement(cost, model, [s["id"] for s in seqs], reference_path(model))
         out[split] = {
             "sequences": [s["id"] for s in seqs],
             "tasks": tasks,
             "cost_per_task": round(cost, 2),
             "success_rate": round(sum(s["successes"] for s in seqs) / tasks, 4),
-            "improvement_vs_myopic": improvement(cost, model, [s["id"] for s in seqs], reference_path(model)),
+            "improvement_vs_myopic": imp,
+            **({"improvement_note": why} if why else {}),
         }
     return out
 
