@@ -62,3 +62,20 @@ def gnn(minimal, tmp_path_factory):
     path = tmp_path_factory.mktemp("gnn") / "gnn-grid-seed0.pt"
     payload = {"model": net.state_dict(), "dims": net.dims, "feature_names": names, "layout": minimal.layout}
     return str(save_gnn_checkpoint(path, payload))
+
+
+@pytest.fixture(scope="module")
+def grid_folder(tmp_path_factory):
+    """A copy of the minimal domain folder with two canonical 4-task sequences of its grid (a reset, clear(c),
+    then deliveries): a real folder the evaluation command can read."""
+    import shutil
+    from pathlib import Path
+
+    from planning.atomic import write_json
+    from planning.world.sequences import generate
+
+    folder = tmp_path_factory.mktemp("domains") / "tiny"
+    shutil.copytree(Path(__file__).resolve().parent.parent / MINIMAL, folder)
+    for rec in generate(compile_domain(folder, "grid"), count=2, length=4):
+        write_json(folder / "sequences" / "grid" / f"seq-{rec['id']:02d}.json", rec)
+    return folder

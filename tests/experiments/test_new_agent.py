@@ -4,16 +4,12 @@ is listed, built from its own flag, played by the evaluation command and named i
 from __future__ import annotations
 
 import json
-import shutil
 import sys
 from pathlib import Path
 
 import pytest
 
 from experiments import registry
-from planning.atomic import write_json
-from planning.domain.compiler import compile_domain
-from planning.world.sequences import generate
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -61,17 +57,7 @@ def detour(monkeypatch, tmp_path):
     sys.modules.pop("detour_agent", None)
 
 
-@pytest.fixture(scope="module")
-def tiny(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("domains") / "tiny"
-    shutil.copytree(ROOT / "domains" / "minimal", folder)
-    model = compile_domain(folder, "grid")
-    for rec in generate(model, count=2, length=4):
-        write_json(folder / "sequences" / "grid" / f"seq-{rec['id']:02d}.json", rec)
-    return folder
-
-
-def test_a_new_agent_is_one_module_and_one_row(detour, tiny, tmp_path, capsys):
+def test_a_new_agent_is_one_module_and_one_row(detour, grid_folder, tmp_path, capsys):
     from experiments.evaluate import main
 
     assert "detour " in registry.describe()
@@ -84,7 +70,7 @@ def test_a_new_agent_is_one_module_and_one_row(detour, tiny, tmp_path, capsys):
             "--agent",
             agent,
             "--domain",
-            str(tiny),
+            str(grid_folder),
             "--layout",
             "grid",
             *extra,

@@ -3,7 +3,6 @@ guided agents, value_rank and bench_bn take any of them through --value."""
 
 import argparse
 import json
-import shutil
 import sys
 from pathlib import Path
 
@@ -12,12 +11,10 @@ import pytest
 from experiments.registry import agent_class, agent_options, build
 from learning import values
 from learning.values.exact import ExactValue
-from planning.atomic import write_json
-from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 from planning.value import Value, ZeroValue
 from planning.world.runner import play_sequence
-from planning.world.sequences import Sequence, generate
+from planning.world.sequences import Sequence
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -123,17 +120,6 @@ def tilt(monkeypatch, tmp_path):
     sys.modules.pop("tilt_value", None)
 
 
-@pytest.fixture(scope="module")
-def tiny(tmp_path_factory):
-    """The minimal grid with two canonical sequences of 4 tasks (each a reset, clear(c), then a delivery)."""
-    folder = tmp_path_factory.mktemp("domains") / "tiny"
-    shutil.copytree(ROOT / "domains" / "minimal", folder)
-    model = compile_domain(folder, "grid")
-    for rec in generate(model, count=2, length=4):
-        write_json(folder / "sequences" / "grid" / f"seq-{rec['id']:02d}.json", rec)
-    return folder
-
-
 def test_a_new_value_kind_is_one_module_and_one_row(minimal, tilt):
     """Clearing C parks the apple on A or B at the same cost from these resets: tilt:b parks it on B, so
     delivering to B is then free and to A costs the walk; the zero value plays the reference plan, which
@@ -159,7 +145,7 @@ def test_a_new_value_kind_is_one_module_and_one_row(minimal, tilt):
     assert agent.run_name == "rl-guided-tilt-b" and agent.config["value"] == "tilt:b"
 
 
-def test_evaluate_plays_a_new_value_kind_and_exact_by_name(tiny, tilt, tmp_path, capsys):
+def test_evaluate_plays_a_new_value_kind_and_exact_by_name(grid_folder, tilt, tmp_path, capsys):
     from experiments.evaluate import main
 
     out = {}
@@ -170,7 +156,7 @@ def test_evaluate_plays_a_new_value_kind_and_exact_by_name(tiny, tilt, tmp_path,
             "--agent",
             "rl-guided",
             "--domain",
-            str(tiny),
+            str(grid_folder),
             "--layout",
             "grid",
             "--value",
