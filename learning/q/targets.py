@@ -194,17 +194,12 @@ class _Pairs:
         return net(torch.cat([bits[s], feat[t]], 1), torch.from_numpy(self.valid[rows]))
 
 
-def td_targets(
-    online: nn.Module,
-    target: nn.Module,
-    enc: Encoding,
-    batch: dict,
-    gamma: float,
-    horizon: str,
-    cache: BoundaryCache | None = None,
-    slots: SlotCache | None = None,
-) -> torch.Tensor:
-    """Double-DQN targets of Algorithm 1 (lines 11-17) for a batch of stored transitions.
+class TargetPlan:
+    """One minibatch's Double-DQN targets (Algorithm 1, lines 11-17) in three parts: this constructor does
+    the numpy work (which rows each network values, their validity and head masks, the cached values),
+    `online_rows` / `target_rows` name the two network evaluations, and `finish` turns their answers
+    into the targets. `td_targets` runs the three for one network pair; a trainer of several seeds
+    (`learning.q.seeds`) runs the two evaluations of every seed's plan as one batched call each.
 
     batch: next_states (N, W) uint64, tasks (N,), rewards (N,), kinds (N,) (CONTINUE /
     COMPLETE / TERMINAL). The online net picks, the target net values. The
@@ -216,92 +211,145 @@ def td_targets(
     last sync; with a slot cache (and the batch's "slots"), the continuing rows'
     encodings come from it and the target net sees only the slots it has not valued.
     """
-    if horizon not in ("myopic", "anticipatory"):
-        raise DomainError("--horizon", f"'{horizon}' is neither myopic nor anticipatory")
-    y = torch.as_tensor(batch["rewards"], dtype=torch.float32).clone()
-    kinds = np.asarray(batch["kinds"])
-    nxt = batch["next_states"]
-    cont = np.flatnonzero(kinds == CONTINUE)
-    comp = np.flatnonzero(kinds == COMPLETE) if horizon == "anticipatory" else cont[:0]
-    if not len(cont) and not len(comp):
-        return y
-    tasks = np.asarray(batch["tasks"])[cont].astype(np.int64)
-    n, k, A = len(cont), len(enc.support), enc.n_actions
-    factored = hasattr(online, "mask_bits") and hasattr(target, "q_labels")
-    masks_of = online.mask_bits if factored else (lambda v: None)
-    if slots is not None and "slots" in batch:
-        sl = slots.encode(batch)[cont]
-        valid_c, bits_c, known = slots.valid[sl, 1], slots.bits[sl, 1], slots.known(sl)
-        mb_c = slots.masks[sl, 1] if factored and slots.masks is not None else masks_of(valid_c)
-    else:
-        sl, known = None, np.zeros(n, dtype=bool)
-        valid_c, bits_c = enc.valid_for(nxt[cont], tasks), _bits(enc, nxt[cont])
-        mb_c = masks_of(valid_c)
-    unknown = np.flatnonzero(~known)  # continuing rows the target must value
-    # the distinct completion states, their cached entries and the ones to value afresh
-    first: dict = {}
-    inv = np.array([first.setdefault(s.tobytes(), len(first)) for s in nxt[comp]], dtype=np.int64)
-    keys = list(first)
-    uniq = nxt[comp][np.unique(inv, return_index=True)[1]]
-    U = len(uniq)
-    hit = [cache.entries.get(key) if cache is not None else None for key in keys]
-    miss = np.array([j for j, e in enumerate(hit) if e is None], dtype=np.int64)
-    valid_b = np.empty((U, k, A), dtype=bool)
-    mb_b = np.empty((U, k, mb_c.shape[1]), dtype=bool) if factored else None
-    if len(miss):
-        valid_b[miss] = _support_valid(enc, uniq[miss]).reshape(len(miss), k, A)
-        if factored:
-            mb_b[miss] = masks_of(valid_b[miss].reshape(-1, A)).reshape(len(miss), k, -1)
-    for j, e in enumerate(hit):
-        if e is not None:
-            valid_b[j] = e[0]
+
+    def __init__(
+        self,
+        online: nn.Module,
+        target: nn.Module,
+        enc: Encoding,
+        batch: dict,
+        gamma: float,
+        horizon: str,
+        cache: BoundaryCache | None = None,
+        slots: SlotCache | None = None,
+    ):
+        if horizon not in ("myopic", "anticipatory"):
+            raise DomainError("--horizon", f"'{horizon}' is neither myopic nor anticipatory")
+        self.gamma, self.enc, self.cache, self.slots = gamma, enc, cache, slots
+        self.y = torch.as_tensor(batch["rewards"], dtype=torch.float32).clone()
+        kinds = np.asarray(batch["kinds"])
+        nxt = batch["next_states"]
+        self.cont = cont = np.flatnonzero(kinds == CONTINUE)
+        self.comp = comp = np.flatnonzero(kinds == COMPLETE) if horizon == "anticipatory" else cont[:0]
+        self.empty = not len(cont) and not len(comp)
+        if self.empty:
+            return
+        tasks = np.asarray(batch["tasks"])[cont].astype(np.int64)
+        n, k, A = len(cont), len(enc.support), enc.n_actions
+        factored = hasattr(online, "mask_bits") and hasattr(target, "q_labels")
+        masks_of = online.mask_bits if factored else (lambda v: None)
+        if slots is not None and "slots" in batch:
+            sl = slots.encode(batch)[cont]
+            valid_c, bits_c, known = slots.valid[sl, 1], slots.bits[sl, 1], slots.known(sl)
+            mb_c = slots.masks[sl, 1] if factored and slots.masks is not None else masks_of(valid_c)
+        else:
+            sl, known = None, np.zeros(n, dtype=bool)
+            valid_c, bits_c = enc.valid_for(nxt[cont], tasks), _bits(enc, nxt[cont])
+            mb_c = masks_of(valid_c)
+        unknown = np.flatnonzero(~known)  # continuing rows the target must value
+        # the distinct completion states, their cached entries and the ones to value afresh
+        first: dict = {}
+        inv = np.array([first.setdefault(s.tobytes(), len(first)) for s in nxt[comp]], dtype=np.int64)
+        keys = list(first)
+        uniq = nxt[comp][np.unique(inv, return_index=True)[1]]
+        U = len(uniq)
+        hit = [cache.entries.get(key) if cache is not None else None for key in keys]
+        miss = np.array([j for j, e in enumerate(hit) if e is None], dtype=np.int64)
+        valid_b = np.empty((U, k, A), dtype=bool)
+        mb_b = np.empty((U, k, mb_c.shape[1]), dtype=bool) if factored else None
+        if len(miss):
+            valid_b[miss] = _support_valid(enc, uniq[miss]).reshape(len(miss), k, A)
             if factored:
-                mb_b[j] = e[2]
-    # rows: the continuing (s', τ), then each completion state with every task of the support
-    valid = np.concatenate([valid_c, valid_b.reshape(U * k, A)])
-    pairs = _Pairs(
-        enc,
-        np.concatenate([bits_c, _bits(enc, uniq)]).astype(np.float32),
-        np.concatenate([np.arange(n), n + np.repeat(np.arange(U), k)]).astype(np.int64),
-        np.concatenate([tasks, np.tile(enc.support, U)]).astype(np.int64),
-        valid,
-    )
-    several = np.flatnonzero(valid.sum(1) > 1)  # rows whose argmax needs the online net
-    rows_t = np.concatenate([unknown, (n + miss[:, None] * k + np.arange(k)).reshape(-1)]).astype(np.int64)
-    nu = len(unknown)
+                mb_b[miss] = masks_of(valid_b[miss].reshape(-1, A)).reshape(len(miss), k, -1)
+        for j, e in enumerate(hit):
+            if e is not None:
+                valid_b[j] = e[0]
+                if factored:
+                    mb_b[j] = e[2]
+        # rows: the continuing (s', τ), then each completion state with every task of the support
+        valid = np.concatenate([valid_c, valid_b.reshape(U * k, A)])
+        self.pairs = _Pairs(
+            enc,
+            np.concatenate([bits_c, _bits(enc, uniq)]).astype(np.float32),
+            np.concatenate([np.arange(n), n + np.repeat(np.arange(U), k)]).astype(np.int64),
+            np.concatenate([tasks, np.tile(enc.support, U)]).astype(np.int64),
+            valid,
+        )
+        self.online_rows = np.flatnonzero(valid.sum(1) > 1)  # rows whose argmax needs the online net
+        self.target_rows = np.concatenate([unknown, (n + miss[:, None] * k + np.arange(k)).reshape(-1)]).astype(
+            np.int64
+        )
+        with torch.inference_mode():
+            self.masks = (
+                online.masks_from_bits(np.concatenate([mb_c, mb_b.reshape(U * k, mb_c.shape[1])])) if factored else None
+            )
+            self.columns = _Pairs.columns(target, A)
+        self.n, self.k, self.U, self.inv, self.keys, self.hit, self.miss = n, k, U, inv, keys, hit, miss
+        self.sl, self.known, self.unknown, self.valid_b, self.mb_b = sl, known, unknown, valid_b, mb_b
+
+    def masks_at(self, rows: np.ndarray):
+        """The head masks of some rows (None for a network that is not factored)."""
+        return None if self.masks is None else FactoredQNet.select_masks(self.masks, torch.from_numpy(rows))
+
+    def finish(self, best_online: torch.Tensor | None, qt: torch.Tensor) -> torch.Tensor:
+        """The targets, from the online net's argmax column at `online_rows` (None where there are none)
+        and the target net's Q at `target_rows` (its columns, `_Pairs.columns`)."""
+        if self.empty:
+            return self.y
+        n, k, U, cache, slots, sl = self.n, self.k, self.U, self.cache, self.slots, self.sl
+        with torch.inference_mode():
+            best = self.columns[torch.from_numpy(self.pairs.valid.argmax(1))]  # the one valid action, where one
+            if best_online is not None:
+                best[torch.from_numpy(self.online_rows)] = best_online
+            picked = torch.empty(len(self.pairs.valid), dtype=torch.float32)
+            rt = torch.from_numpy(self.target_rows)
+            picked[rt] = qt.gather(1, best[rt][:, None])[:, 0]
+            nu = len(self.unknown)
+            if sl is not None:  # the slots' target values, kept and reused
+                kn = np.flatnonzero(self.known)
+                if len(kn):
+                    picked[torch.from_numpy(kn)] = torch.from_numpy(slots.q[sl[kn], best[torch.from_numpy(kn)].numpy()])
+                if nu:
+                    slots.store(sl[self.unknown], qt[:nu].numpy())
+            held = [j for j, e in enumerate(self.hit) if e is not None]
+            if held:  # the cached target values at the online argmax
+                cols = best.numpy()[n:].reshape(U, k)[held]
+                qh = np.stack([self.hit[j][1] for j in held])
+                rows_h = torch.from_numpy((n + np.array(held)[:, None] * k + np.arange(k)).reshape(-1))
+                picked[rows_h] = torch.from_numpy(np.take_along_axis(qh, cols[:, :, None], 2).reshape(-1))
+            if cache is not None:
+                qt = qt.numpy()
+                for i, j in enumerate(self.miss[: max(0, cache.max_states - len(cache.entries))]):
+                    cache.entries[self.keys[j]] = (
+                        self.valid_b[j].copy(),
+                        qt[nu + i * k : nu + (i + 1) * k].copy(),
+                        None if self.mb_b is None else self.mb_b[j].copy(),
+                    )
+        y = self.y
+        y[torch.from_numpy(self.cont)] += self.gamma * picked[:n]
+        if len(self.comp):
+            p = torch.from_numpy(self.enc.task_prob[self.enc.support]).float()
+            y[torch.from_numpy(self.comp)] += self.gamma * (picked[n:].reshape(U, k) @ p)[torch.from_numpy(self.inv)]
+        return y
+
+
+def td_targets(
+    online: nn.Module,
+    target: nn.Module,
+    enc: Encoding,
+    batch: dict,
+    gamma: float,
+    horizon: str,
+    cache: BoundaryCache | None = None,
+    slots: SlotCache | None = None,
+) -> torch.Tensor:
+    """Double-DQN targets of Algorithm 1 (lines 11-17) for a batch of stored transitions (`TargetPlan`
+    says how): the online net picks, the target net values."""
+    plan = TargetPlan(online, target, enc, batch, gamma, horizon, cache, slots)
+    if plan.empty:
+        return plan.y
     with torch.inference_mode():
-        masks = online.masks_from_bits(np.concatenate([mb_c, mb_b.reshape(U * k, mb_c.shape[1])])) if factored else None
-        pick = lambda rows: None if masks is None else FactoredQNet.select_masks(masks, torch.from_numpy(rows))
-        col = _Pairs.columns(target, A)
-        best = col[torch.from_numpy(valid.argmax(1))]  # the one valid action, where one
-        if len(several):
-            best[torch.from_numpy(several)] = pairs.best(online, several, pick(several))
-        qt = pairs.values(target, rows_t, pick(rows_t))
-        picked = torch.empty(len(valid), dtype=torch.float32)
-        rt = torch.from_numpy(rows_t)
-        picked[rt] = qt.gather(1, best[rt][:, None])[:, 0]
-        if sl is not None:  # the slots' target values, kept and reused
-            kn = np.flatnonzero(known)
-            if len(kn):
-                picked[torch.from_numpy(kn)] = torch.from_numpy(slots.q[sl[kn], best[torch.from_numpy(kn)].numpy()])
-            if nu:
-                slots.store(sl[unknown], qt[:nu].numpy())
-        held = [j for j, e in enumerate(hit) if e is not None]
-        if held:  # the cached target values at the online argmax
-            cols = best.numpy()[n:].reshape(U, k)[held]
-            qh = np.stack([hit[j][1] for j in held])
-            rows_h = torch.from_numpy((n + np.array(held)[:, None] * k + np.arange(k)).reshape(-1))
-            picked[rows_h] = torch.from_numpy(np.take_along_axis(qh, cols[:, :, None], 2).reshape(-1))
-        if cache is not None:
-            qt = qt.numpy()
-            for i, j in enumerate(miss[: max(0, cache.max_states - len(cache.entries))]):
-                cache.entries[keys[j]] = (
-                    valid_b[j].copy(),
-                    qt[nu + i * k : nu + (i + 1) * k].copy(),
-                    None if mb_b is None else mb_b[j].copy(),
-                )
-    y[torch.from_numpy(cont)] += gamma * picked[:n]
-    if len(comp):
-        p = torch.from_numpy(enc.task_prob[enc.support]).float()
-        y[torch.from_numpy(comp)] += gamma * (picked[n:].reshape(U, k) @ p)[torch.from_numpy(inv)]
-    return y
+        rows = plan.online_rows
+        best = plan.pairs.best(online, rows, plan.masks_at(rows)) if len(rows) else None
+        qt = plan.pairs.values(target, plan.target_rows, plan.masks_at(plan.target_rows))
+    return plan.finish(best, qt)
