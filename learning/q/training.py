@@ -33,6 +33,7 @@ import re
 import sys
 import time
 from collections import deque
+from contextlib import ExitStack
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
@@ -484,41 +485,7 @@ class Trainer:
 
     def train(self) -> dict:
         """Run until cfg.steps, logging, evaluating and checkpointing; returns the last metrics row."""
-        cfg = self.cfg
-        if self.world.task is None:
-            self._next_task()
-        bar = tqdm(
-            total=cfg.steps,
-            initial=self.step,
-            desc=f"dqn {self.model.layout} {cfg.horizon}",
-            unit="step",
-            disable=not self.progress,
-            smoothing=0.05,
-        )
-        row, t0, s0, updates = {}, time.perf_counter(), self.step, 0
-        while self.step < cfg.steps:
-            self.env_step(epsilon(cfg, self.step))  # lines 5-7, 21, 25-27
-            if self.step >= cfg.learning_starts and self.step % cfg.train_every == 0:
-                self.update()  # lines 8-20
-                updates += 1
-            if self.step % cfg.target_every == 0:  # lines 22-24
-                self.sync_target()
-            if self.step % cfg.log_every == 0:
-                dt = time.perf_counter() - t0
-                row = self._log(
-                    eps=epsilon(cfg, self.step), steps_per_s=(self.step - s0) / dt, updates_per_s=updates / dt
-                )
-                t0, s0, updates = time.perf_counter(), self.step, 0
-                bar.set_postfix(
-                    success=f"{row['success_rate']:.2f}", ret=f"{row['task_return']:.1f}", q=f"{row['selected_q']:.1f}"
-                )
-            if self.step % cfg.eval_every == 0 or self.step == cfg.steps:
-                self._evaluate()
-            if self.step % cfg.checkpoint_every == 0 or self.step == cfg.steps:
-                self.save()
-            bar.update(1)
-        bar.close()
-        return row
+        return train_loop([self], self.update, self.progress)[0]
 
     # ---- metrics, evaluation, checkpoints ------------------------------------------------------
     def _log(self, **extra) -> dict:
@@ -669,6 +636,58 @@ class Trainer:
         write_text(self.metrics, "".join(json.dumps(row) + "\n" for row in keep))
 
 
+def train_loop(trainers: list, update, progress: bool = True) -> list[dict]:
+    """Algorithm 1's loop (lines 3-28) for runs in lockstep: one `Trainer`, or the seeds of a
+    `learning.q.seeds.SeedBatch`. Each run takes its environment step, then `update()` makes every run's
+    gradient step; target syncs, metrics rows, evaluations and checkpoints fall on the same steps for
+    all. Runs until cfg.steps; returns each run's last metrics row (its steps_per_s and updates_per_s
+    are each run's own, so a batch of S runs does S times as many)."""
+    cfg, first = trainers[0].cfg, trainers[0]
+    for t in trainers:
+        if t.world.task is None:
+            t._next_task()
+    seeds = "" if len(trainers) == 1 else " seeds " + ",".join(str(t.cfg.seed) for t in trainers)
+    bar = tqdm(
+        total=cfg.steps,
+        initial=first.step,
+        desc=f"dqn {first.model.layout} {cfg.horizon}{seeds}",
+        unit="step",
+        disable=not progress,
+        smoothing=0.05,
+    )
+    rows, t0, s0, updates = [{} for _ in trainers], time.perf_counter(), first.step, 0
+    while first.step < cfg.steps:
+        for t in trainers:
+            t.env_step(epsilon(cfg, t.step))  # lines 5-7, 21, 25-27
+        step = first.step
+        if step >= cfg.learning_starts and step % cfg.train_every == 0:
+            update()  # lines 8-20
+            updates += 1
+        if step % cfg.target_every == 0:  # lines 22-24
+            for t in trainers:
+                t.sync_target()
+        if step % cfg.log_every == 0:
+            dt = time.perf_counter() - t0
+            rate = {"eps": epsilon(cfg, step), "steps_per_s": (step - s0) / dt, "updates_per_s": updates / dt}
+            rows = [t._log(**rate) for t in trainers]
+            t0, s0, updates = time.perf_counter(), step, 0
+            mean = {
+                key: float(np.mean([r[key] for r in rows])) for key in ("success_rate", "task_return", "selected_q")
+            }
+            bar.set_postfix(
+                success=f"{mean['success_rate']:.2f}", ret=f"{mean['task_return']:.1f}", q=f"{mean['selected_q']:.1f}"
+            )
+        if step % cfg.eval_every == 0 or step == cfg.steps:
+            for t in trainers:
+                t._evaluate()
+        if step % cfg.checkpoint_every == 0 or step == cfg.steps:
+            for t in trainers:
+                t.save()
+        bar.update(1)
+    bar.close()
+    return rows
+
+
 def read_metrics(path, strict: bool = True) -> tuple[list[dict], bool]:
     """(the rows of a run's metrics.jsonl, whether a half-written last line was dropped).
 
@@ -738,35 +757,65 @@ def run_folder(cfg: Config, model) -> Path:
 
 def train_run(cfg: Config, fresh: bool = False, progress: bool = True) -> Trainer:
     """Train the run of `cfg` to cfg.steps, resuming it where it stopped: the one way a run starts or goes
-    on (learning.dqn, experiments.sweep's items). Returns the trainer, its run ended.
+    on (learning.dqn, experiments.sweep's items). Returns the trainer, its run ended (`train_runs`)."""
+    return train_runs([cfg], fresh, progress)[0]
 
-    The run folder is locked (`planning.atomic.OutputLock`) before anything is written in it and until
+
+def train_runs(cfgs: list, fresh: bool = False, progress: bool = True) -> list:
+    """Train runs that differ only in their seed to cfg.steps, in one process, resuming each where it
+    stopped; several are trained together with their updates batched (`learning.q.seeds`), one alone as
+    always. Returns the trainers, their runs ended.
+
+    Each run folder is locked (`planning.atomic.OutputLock`) before anything is written in it and until
     training ends: a second trainer of it stops at once with a one-line error instead of appending every
     metrics row twice. A run with a last.pt continues from it (not with `fresh`), the metrics rows logged
     after that checkpoint dropped (they are logged again); a run without one starts over, and what an
     earlier start left (its metrics rows, best.pt, last.pt) is deleted, so metrics.jsonl never holds a
     step twice (a run killed after its first rows but before its first checkpoint read 100, 200, 100, ...).
+    Runs trained together resume together: their checkpoints must be at one step.
     """
-    check_config(cfg)
-    out = run_folder(cfg, compile_domain(cfg.domain, cfg.layout))
-    cli.check_writable(out, folder=True)
-    out.mkdir(parents=True, exist_ok=True)  # the lock lives inside the folder: made before it is taken
-    with OutputLock(out, "training run"):
-        trainer = Trainer(cfg, progress=progress)
-        last = trainer.out / "last.pt"
-        if last.is_file() and not fresh:
-            trainer.resume(last)
-            print(f"resumed {last} at step {trainer.step}", file=sys.stderr)
-        else:
-            stale = [p for p in (trainer.metrics, trainer.out / "best.pt", last) if p.is_file()]
-            if stale and not fresh:
-                names = ", ".join(p.name for p in stale)
-                print(
-                    f"{trainer.out}: no last.pt to resume from; the run starts over ({names} of its earlier "
-                    "start dropped)",
-                    file=sys.stderr,
-                )
-            for p in stale:
-                p.unlink()
-        trainer.train()
-    return trainer
+    from .seeds import SeedBatch, check_together
+
+    for cfg in cfgs:
+        check_config(cfg)
+    if len(cfgs) > 1:
+        check_together(cfgs)
+    model = compile_domain(cfgs[0].domain, cfgs[0].layout)
+    outs = [run_folder(cfg, model) for cfg in cfgs]
+    if len(set(outs)) < len(outs):
+        raise DomainError("--out", "the runs trained together need a folder each; leave --out out")
+    with ExitStack() as locks:
+        for out in outs:
+            cli.check_writable(out, folder=True)
+            out.mkdir(parents=True, exist_ok=True)  # the lock lives inside the folder: made before it is taken
+            locks.enter_context(OutputLock(out, "training run"))
+        trainers = [Trainer(cfg, progress=progress) for cfg in cfgs]
+        batch = SeedBatch(trainers) if len(trainers) > 1 else None
+        for trainer in trainers:
+            _start(trainer, fresh)
+        if batch is not None:
+            batch.resumed()
+            steps = {t.cfg.seed: t.step for t in trainers}
+            if len(set(steps.values())) > 1:
+                at = ", ".join(f"seed {k} at step {v}" for k, v in steps.items())
+                raise DomainError("--seed", f"the runs stopped at different steps ({at}); resume them one at a time")
+        train_loop(trainers, trainers[0].update if batch is None else batch.update, progress)
+    return trainers
+
+
+def _start(trainer: Trainer, fresh: bool) -> None:
+    """Resume the trainer from its last.pt, or clear what an earlier start left (`train_runs`)."""
+    last = trainer.out / "last.pt"
+    if last.is_file() and not fresh:
+        trainer.resume(last)
+        print(f"resumed {last} at step {trainer.step}", file=sys.stderr)
+        return
+    stale = [p for p in (trainer.metrics, trainer.out / "best.pt", last) if p.is_file()]
+    if stale and not fresh:
+        names = ", ".join(p.name for p in stale)
+        print(
+            f"{trainer.out}: no last.pt to resume from; the run starts over ({names} of its earlier start dropped)",
+            file=sys.stderr,
+        )
+    for p in stale:
+        p.unlink()
