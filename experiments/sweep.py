@@ -12,6 +12,8 @@ evaluation, last metrics row) goes to OUT.parts/<run>.json, with its provenance,
 it ends; a part of the same settings is reused on a rerun (delete it to train again). Every
 point's settings, and every file name made of them, are checked before anything is written.
 On a multi-node cluster RUNS must be on a shared filesystem, since the runs write there.
+With --seeds-together the runs that differ only in their seed are one work item, trained in one
+process with their updates batched (`learning.q.seeds`, as `learning.dqn --seed 0,4,8,16`).
 With --deploy, a finished run is also exported (`learning.export`: the float16 checkpoint
 CHECKPOINTS/rl-<horizon>-<layout>-seed<seed>[-<setting><value>...].pt and RESULTS/training-....json)
 and evaluated greedily on the canonical sequences (`rl-greedy`, RESULTS/rl-greedy-....json):
@@ -120,10 +122,34 @@ def item_config(item: dict):
 def train_item(item: dict) -> dict:
     """One learning.dqn run to the end, started or resumed as learning.dqn does (`learning.q.training.train_run`:
     the run folder locked, metrics rows past the resumed checkpoint dropped); its outcome."""
-    from learning.q.training import last_row, train_run
+    from learning.q.training import train_run
 
-    cfg = item_config(item)
-    trainer = train_run(cfg, progress=False)
+    return outcome(item, train_run(item_config(item), progress=False))
+
+
+def train_group(items: list) -> list:
+    """Runs that differ only in their seed, trained together in one process (`learning.q.training.train_runs`,
+    `--seeds-together`); their outcomes, in order."""
+    from learning.q.training import train_runs
+
+    trainers = train_runs([item_config(item) for item in items], progress=False)
+    return [outcome(item, trainer) for item, trainer in zip(items, trainers)]
+
+
+def seed_groups(todo: list) -> list:
+    """The (name, item) pairs to train, grouped by every setting but the seed (`--seeds-together`)."""
+    groups: dict = {}
+    for name, item in todo:
+        key = json.dumps({k: v for k, v in item.items() if k not in ("seed", "out", "deploy")}, sort_keys=True)
+        groups.setdefault(key, []).append((name, item))
+    return list(groups.values())
+
+
+def outcome(item: dict, trainer) -> dict:
+    """What a sweep records of a finished training run (and, with --deploy, its export and greedy figures)."""
+    from learning.q.training import last_row
+
+    cfg = trainer.cfg
     out = {
         "run": item["out"],
         "config": dataclasses.asdict(cfg),
@@ -216,15 +242,33 @@ def train_sweep(args, grid: dict, settings: dict, plan: tuple, out: Path) -> dic
         write_json(parts / f"{name}.json", results[name])
 
     t0 = time.perf_counter()
-    run_items(
-        train_item,
-        [item for _, item in todo],
-        workers=args.workers,
-        use_ray=args.ray,
-        on_result=write_part,
-        progress=not args.no_progress,
-        desc="training runs",
-    )
+    if args.seeds_together:  # one work item per group of seeds; each run's part written as its group ends
+        groups = seed_groups(todo)
+        at = {name: k for k, (name, _) in enumerate(todo)}
+
+        def write_group(g, result, meta):
+            for (name, _), r in zip(groups[g], result):
+                write_part(at[name], r, meta)
+
+        run_items(
+            train_group,
+            [[item for _, item in group] for group in groups],
+            workers=args.workers,
+            use_ray=args.ray,
+            on_result=write_group,
+            progress=not args.no_progress,
+            desc="training runs (seeds together)",
+        )
+    else:
+        run_items(
+            train_item,
+            [item for _, item in todo],
+            workers=args.workers,
+            use_ray=args.ray,
+            on_result=write_part,
+            progress=not args.no_progress,
+            desc="training runs",
+        )
     wall = time.perf_counter() - t0
     rows = []
     for name, p in zip(names, points):
@@ -351,6 +395,12 @@ def main() -> None:
         "--deploy",
         action="store_true",
         help="export each finished run and evaluate it greedily on --sequences (default there: all)",
+    )
+    train.add_argument(
+        "--seeds-together",
+        action="store_true",
+        help="train the seeds of each grid point in one process, their updates batched (learning.q.seeds): "
+        "one work item per point",
     )
     train.add_argument(
         "--checkpoints",

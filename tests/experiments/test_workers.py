@@ -246,6 +246,20 @@ def test_a_sweep_over_workers_gives_the_serial_results(tiny, tmp_path, serial_sw
         assert again["items_reused"] == 2 and points(again) == points(serial)
 
 
+def test_a_sweep_of_seeds_together_follows_the_serial_runs(tiny, tmp_path, serial_sweeps):
+    """--seeds-together: the two seeds are one work item, trained with their updates batched; each run still
+    has its own folder and part, the same steps and tasks, and figures equal to float32 rounding."""
+    where, _, serial, _ = serial_sweeps
+    together = sweep(tiny, tmp_path, "together", *TRAIN, "--runs", "runs/together", "--seeds-together")
+    assert [p["seed"] for p in together["points"]] == [0, 1]
+    assert len(list((tmp_path / "together.json.parts").glob("*.json"))) == 2
+    for a, b in zip(serial["points"], together["points"]):
+        assert (a["steps"], a["tasks"], a["best_step"]) == (b["steps"], b["tasks"], b["best_step"])
+        assert a["last"]["success_rate"] == b["last"]["success_rate"]
+        assert a["last"]["td_target"] == pytest.approx(b["last"]["td_target"], rel=1e-3, abs=1e-3)
+    assert (tmp_path / "runs" / "together" / "tiny-grid-anticipatory-seed1" / "last.pt").is_file()
+
+
 def test_a_training_sweeps_summary_is_named_after_its_grid():
     """Two sweeps of one domain keep their own summaries: the default name spells the grid."""
     from experiments.sweep import summary_name
