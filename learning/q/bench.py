@@ -23,7 +23,12 @@ the layout's demonstrations), then times
 
 A training step is one ε = 0.05 acting step and one update: `train_steps_per_s_*`.
 
-    python -m learning.q.bench --layout two-room [--updates 1000] [--steps 2000] [--out FILE]
+With --seeds S (S > 1) it also times S seeds trained in one process (`learning.q.seeds.SeedBatch`)
+against one seed alone, both on the demonstrations (the competent regime), in alternating rounds of
+50 updates so that both see the same machine: `seeds.ratio` is the S seeds' aggregate updates/s over
+the single seed's.
+
+    python -m learning.q.bench --layout two-room [--updates 1000] [--steps 2000] [--seeds 4] [--out FILE]
 
 Times are this process's CPU time (torch runs one thread): on a free core that is the
 wall time, on a shared machine it is what the work costs rather than how long it waited
@@ -147,6 +152,53 @@ def matmul_profile(trainer: Trainer, batches: list, chunk: int = 50) -> dict:
     }
 
 
+def seeds_profile(model_dir: str, layout: str, horizon: str, n_seeds: int, updates: int, seed: int) -> dict:
+    """Aggregate updates/s of n_seeds seeds in one `SeedBatch` against one seed alone (module docstring)."""
+    from .seeds import SeedBatch
+
+    model = compile_domain(model_dir, layout)
+    with tempfile.TemporaryDirectory() as tmp:
+        cfg = lambda s: Config(
+            **{
+                **domain_defaults(model, horizon),
+                "domain": model_dir,
+                "layout": model.layout,
+                "horizon": horizon,
+                "seed": s,
+                "steps": 0,
+                "out": f"{tmp}/{s}",
+            }
+        )
+        single = Trainer(cfg(seed), progress=False)
+        trainers = [Trainer(cfg(seed + k), progress=False) for k in range(n_seeds)]
+        batch = SeedBatch(trainers)
+        for t in (single, *trainers):
+            t.memory = t.demos  # a competent policy's completion share
+        chunk, rounds = 50, max(1, updates // 50)
+        t_single = t_batch = 0.0
+        for r in range(rounds):
+            if r * chunk % single.cfg.target_every == 0:
+                for t in (single, *trainers):
+                    t.sync_target()
+            t = clock()
+            for _ in range(chunk):
+                single.update()
+            t_single += clock() - t
+            t = clock()
+            for _ in range(chunk):
+                batch.update()
+            t_batch += clock() - t
+    n = rounds * chunk
+    return {
+        "seeds": n_seeds,
+        "updates": n,
+        "single_updates_per_s": round(n / t_single, 2),
+        "aggregate_updates_per_s": round(n_seeds * n / t_batch, 2),
+        "per_seed_updates_per_s": round(n / t_batch, 2),
+        "ratio": round(n_seeds * t_single / t_batch, 3),
+    }
+
+
 def bench_horizon(model_dir: str, layout: str, horizon: str, steps: int, updates: int, seed: int) -> dict:
     """Acting and update figures of one horizon's trainer."""
     model = compile_domain(model_dir, layout)
@@ -188,6 +240,13 @@ def main() -> None:
         "--updates", type=int, default=1000, help="updates timed per regime (default 1000: one target-sync period)"
     )
     p.add_argument("--horizons", default=",".join(HORIZONS))
+    p.add_argument(
+        "--seeds",
+        type=int,
+        default=1,
+        help="also time this many seeds trained in one process against one (default 1: not)",
+    )
+    p.add_argument("--skip-single", action="store_true", help="time only the seeds trained together (with --seeds)")
     args = p.parse_args()
     torch.set_num_threads(1)
     model = compile_domain(args.domain, args.layout)
@@ -201,6 +260,17 @@ def main() -> None:
         "machine": f"{platform.machine()} {platform.python_implementation()} {platform.python_version()}",
     }
     for h in args.horizons.split(","):
+        if args.seeds > 1:
+            r = seeds_profile(args.domain, model.layout, h, args.seeds, args.updates, args.seed)
+            out.setdefault("seeds", {})[h] = r
+            print(
+                f"{h:12s} {r['seeds']} seeds in one process: {r['aggregate_updates_per_s']:.1f} updates/s in all, one "
+                f"seed alone {r['single_updates_per_s']:.1f}: {r['ratio']:.2f}x (competent regime, {r['updates']} "
+                "updates each)",
+                flush=True,
+            )
+        if args.skip_single:
+            continue
         r = bench_horizon(args.domain, model.layout, h, args.steps, args.updates, args.seed)
         out[h] = r
         c, e = r["competent"], r["early"]

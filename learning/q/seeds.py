@@ -19,8 +19,13 @@ Per element every seed computes what its single run computes; only the order of 
 inside a batched matrix product may differ, so values agree to float32 rounding and a seed
 trained here takes the same actions, draws the same minibatches and fills the same replay
 memory as alone until a near-tie of Q flips a greedy choice (`tests/learning/test_seeds.py`).
-What it saves is the per-operation overhead that dominates an update of a network this small:
-`learning.q.bench --seeds 4` measures the aggregate rate against one seed in the same process.
+
+What batching saves is per-operation overhead. On a CPU core an update of this network is
+bound by arithmetic and memory traffic instead: its matrix products run near the core's peak
+and its other operations scale with the rows they touch, so S seeds cost about S single
+updates (`learning.q.bench --seeds 4` measures the aggregate rate against one seed in the same
+process; committed: results/dqn-bench-seeds-two-room.json). Batching pays where per-kernel
+overhead dominates, as on a GPU.
 """
 
 from __future__ import annotations
