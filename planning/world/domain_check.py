@@ -13,6 +13,8 @@ unknown object, a task type without a schema, probabilities that do not sum to
   [stream] first_task names an instance, every task can be completed from the
   start state (the problem's :init; an optimal plan by planning.search.optimal,
   LM-cut, so it needs no rooms), a type of probability 0 that no stream draws;
+- task streams ([streams.<name>], `planning.world.streams`): a known kind, types that [tasks]
+  draws, every transition row and phase mix summing to 1, phases in order;
 - resets: every world a reset can draw (each combination of the [[reset]] choices);
 - rooms: every listed object exists, and every location (an object of the
   family the listed ones belong to) is in exactly one room, else a warning: the
@@ -44,7 +46,19 @@ import numpy as np
 from planning import cli
 from planning.errors import DomainError
 
-KNOWN_TABLES = ("layouts", "tasks", "reset", "coordinates", "heads", "stream", "reward", "training", "search", "gnn")
+KNOWN_TABLES = (
+    "layouts",
+    "tasks",
+    "reset",
+    "coordinates",
+    "heads",
+    "stream",
+    "streams",
+    "reward",
+    "training",
+    "search",
+    "gnn",
+)
 """The top-level tables of domain.toml that some tool reads."""
 LAYOUT_KEYS = ("problem", "rooms", "tasks", "reset", "coordinates")
 STREAM_KEYS = {
@@ -474,6 +488,7 @@ class Checker:
         first = self._first_task(model)
         if first is not False:
             self._check_unused_types(model, first)
+        self._check_streams(model)
         rooms, locations = self._check_rooms(model)
         worlds = reset_worlds(model)
         self._check_heads(model, worlds)
@@ -510,6 +525,15 @@ class Checker:
                 "first_task",
             )
             return False
+
+    def _check_streams(self, model) -> None:
+        """[streams.<name>]: each declared task stream reads (`planning.world.streams`)."""
+        from planning.world.streams import streams
+
+        try:
+            streams(model)
+        except DomainError as e:
+            self.error(f"layout {model.layout}: {e.reason}", "streams")
 
     def _check_unused_types(self, model, first) -> None:
         by_type: dict[str, float] = {}

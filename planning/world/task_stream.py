@@ -119,10 +119,17 @@ class PersistentWorld:
         self.task = None
 
 
-def draw_tasks(model, seed: int, n: int) -> list:
-    """n tasks drawn i.i.d. from the layout's task distribution with a seeded generator."""
+def draw_tasks(model, seed: int, n: int, stream=None) -> list:
+    """n tasks drawn with a seeded generator from a stream (`planning.world.streams`; None: i.i.d. from the
+    layout's task distribution), positions 0 to n-1 after a reset."""
     rng = np.random.default_rng(seed)
-    return [model.tasks.sample(rng) for _ in range(n)]
+    if stream is None or stream.kind == "iid":
+        return [model.tasks.sample(rng) for _ in range(n)]
+    out, previous = [], None
+    for k in range(n):
+        previous = stream.sample(rng, previous, k)
+        out.append(previous)
+    return out
 
 
 class TaskStream:
@@ -130,22 +137,33 @@ class TaskStream:
 
     After every `tasks_per_reset` tasks the world is re-sampled; the domain may
     name a fixed first task after each reset ([stream] first_task), as the
-    minimal example does (clear C, then a delivery drawn from P).
+    minimal example does (clear C, then a delivery drawn from P). `stream` is the
+    declared stream the tasks follow (`planning.world.streams`; None: i.i.d. from P);
+    a Markov stream conditions each task on the one before within a reset period,
+    a drifting one on the position in it.
     """
 
-    def __init__(self, model, seed: int):
-        stream = model.config.get("stream", {})
+    def __init__(self, model, seed: int, stream=None):
+        config = model.config.get("stream", {})
         self.model = model
         self.rng = np.random.default_rng(seed)
-        self.tasks_per_reset = stream.get("tasks_per_reset", 50)
-        first = stream.get("first_task")
+        self.tasks_per_reset = config.get("tasks_per_reset", 50)
+        first = config.get("first_task")
         self.first_task = model.tasks.get(first) if first else None
+        self.stream = stream
         self.count = 0
+        self.previous = None
 
     def next(self) -> tuple:
         """(task, reset_seed or None): a reset seed when the world must be re-sampled first."""
         k = self.count % self.tasks_per_reset
         reset = int(self.rng.integers(2**31)) if k == 0 else None
-        task = self.first_task if (k == 0 and self.first_task) else self.model.tasks.sample(self.rng)
+        if k == 0 and self.first_task:
+            task = self.first_task
+        elif self.stream is None or self.stream.kind == "iid":
+            task = self.model.tasks.sample(self.rng)
+        else:
+            task = self.stream.sample(self.rng, None if k == 0 else self.previous, k)
         self.count += 1
+        self.previous = task
         return task, reset

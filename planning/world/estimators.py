@@ -1,0 +1,159 @@
+"""Task-distribution estimators: what an agent believes the next task's distribution to be.
+
+The thesis's P(τ) enters in two places, the learner's boundary target and the search's terminal
+score (V_AP), and the labelling oracle's C_AP in a third; each asks an estimator the same question:
+
+    probabilities(after)  ->  (instances,) P(next task | after, the stream seen so far)
+
+where `after` is the task just completed (None: no task yet, a sequence's start). The estimator
+sees the stream through `observe(task)` (each task as it is drawn) and `restart()` (a world reset:
+the next task starts a new sequence, so no transition is counted into it). Four are built in
+(`ESTIMATORS`, `build`):
+
+- known: the layout's i.i.d. P(τ) of [tasks], the thesis's assumption (default; it ignores what it
+  sees, and every result made before estimators existed is this one's);
+- empirical: counts of the tasks seen so far plus a prior of `prior` pseudo-counts spread uniformly
+  over P's support (so it starts uniform, "from nothing"); with `forget` < 1 every count decays by
+  that factor per task seen (a running average weighted towards recent tasks, to track a drift);
+- markov: P(τ' | τ) of a declared Markov stream, known (`planning.world.streams`);
+- markov-empirical: transition counts from each task type to each next task, learned online, each
+  row with the same prior and forgetting as empirical; before any task (after = None) the counts'
+  column sums (the empirical marginal).
+
+Every distribution is over the layout's task instances and zero off P's support, so the learner's
+and the search's sums over the support are unchanged in shape.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from planning.errors import DomainError
+
+
+class Estimator:
+    """The protocol (and the known i.i.d. estimator): observe the stream, answer P(next | after)."""
+
+    name = "known"
+
+    def __init__(self, model):
+        p = np.asarray(model.tasks.probabilities, dtype=np.float64)
+        self.p = p / p.sum()
+        self.support = self.p > 0
+        self.tasks = model.tasks
+        self.type_index = {ty: k for k, ty in enumerate(dict.fromkeys(t.type for t in model.tasks))}
+        self.type_of = np.array([self.type_index[t.type] for t in model.tasks], dtype=np.int64)
+
+    def observe(self, task) -> None:
+        """One more task of the stream, as it is drawn."""
+
+    def restart(self) -> None:
+        """The world was reset: the next task starts a sequence (no transition into it)."""
+
+    def probabilities(self, after=None) -> np.ndarray:
+        """(instances,) the next task's distribution after the task `after` (None: at a sequence's start)."""
+        return self.p
+
+    def state_dict(self) -> dict:
+        """What a checkpoint keeps to resume the estimate."""
+        return {"name": self.name}
+
+    def load_state_dict(self, state: dict) -> None:
+        if state.get("name") != self.name:
+            raise DomainError("estimator", f"a {state.get('name')!r} estimate cannot resume a {self.name!r} one")
+
+
+class Empirical(Estimator):
+    """Counts of the tasks seen, with a uniform prior over the support and optional forgetting."""
+
+    name = "empirical"
+
+    def __init__(self, model, prior: float = 1.0, forget: float = 1.0):
+        super().__init__(model)
+        if not prior > 0:
+            raise DomainError("--prior", f"{prior!r} is not a positive number of pseudo-counts")
+        if not 0 < forget <= 1:
+            raise DomainError("--forget", f"{forget!r} is not a factor in (0, 1]")
+        self.prior, self.forget = float(prior), float(forget)
+        self.counts = np.zeros(len(self.p))
+        self.base = self.support / self.support.sum() * self.prior
+
+    def observe(self, task) -> None:
+        self.counts *= self.forget
+        self.counts[task.index] += 1.0
+
+    def probabilities(self, after=None) -> np.ndarray:
+        c = self.counts + self.base
+        return c / c.sum()
+
+    def state_dict(self) -> dict:
+        return {"name": self.name, "counts": self.counts.copy(), "prior": self.prior, "forget": self.forget}
+
+    def load_state_dict(self, state: dict) -> None:
+        super().load_state_dict(state)
+        self.counts = np.asarray(state["counts"], dtype=np.float64).copy()
+
+
+class Markov(Estimator):
+    """P(τ' | τ) of a declared Markov stream, known."""
+
+    name = "markov"
+
+    def __init__(self, model, stream):
+        super().__init__(model)
+        if stream is None or stream.kind != "markov":
+            kind = "the i.i.d. stream" if stream is None else f"stream {stream.name} ({stream.kind})"
+            raise DomainError("--estimator", f"markov needs a Markov stream, not {kind} (pass --stream NAME)")
+        self.stream = stream
+
+    def probabilities(self, after=None) -> np.ndarray:
+        return self.stream.probabilities(after)
+
+
+class MarkovEmpirical(Empirical):
+    """Transition counts from each task type to each next task, learned online (`Empirical`'s prior and
+    forgetting per row)."""
+
+    name = "markov-empirical"
+
+    def __init__(self, model, prior: float = 1.0, forget: float = 1.0):
+        super().__init__(model, prior, forget)
+        self.counts = np.zeros((len(self.type_index), len(self.p)))
+        self.last = None
+
+    def observe(self, task) -> None:
+        if self.last is not None:
+            row = self.counts[self.type_of[self.last.index]]
+            row *= self.forget
+            row[task.index] += 1.0
+        self.last = task
+
+    def restart(self) -> None:
+        self.last = None
+
+    def probabilities(self, after=None) -> np.ndarray:
+        c = (self.counts.sum(0) if after is None else self.counts[self.type_of[after.index]]) + self.base
+        return c / c.sum()
+
+    def state_dict(self) -> dict:
+        return {**super().state_dict(), "last": None if self.last is None else self.last.index}
+
+    def load_state_dict(self, state: dict) -> None:
+        super().load_state_dict(state)
+        self.last = None if state.get("last") is None else self.tasks[state["last"]]
+
+
+ESTIMATORS = {"known": Estimator, "empirical": Empirical, "markov": Markov, "markov-empirical": MarkovEmpirical}
+"""name -> class; `build` makes one for a layout and stream."""
+
+
+def build(name: str | None, model, stream=None, prior: float = 1.0, forget: float = 1.0) -> Estimator:
+    """The estimator of that name (None: known) for a layout and the stream it will see."""
+    name = name or "known"
+    if name not in ESTIMATORS:
+        raise DomainError("--estimator", f"'{name}' is not an estimator ({', '.join(ESTIMATORS)})")
+    if name == "known":
+        return Estimator(model)
+    if name == "markov":
+        return Markov(model, stream)
+    return ESTIMATORS[name](model, prior, forget)
