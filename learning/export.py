@@ -268,7 +268,8 @@ def default_names(run: Path, gnn: bool) -> tuple[str, str]:
     else:
         p = read_checkpoint(best)
         cfg = p.get("config", {})
-        for field in ("horizon", "layout", "seed", *(("target_bound",) if bound_suffix(cfg) else ())):
+        named = ("target_bound", "stream", "estimator") if bound_suffix(cfg) else ()
+        for field in ("horizon", "layout", "seed", *(f for f in named if f in cfg)):
             file_name(cfg.get(field), best, f"config.{field}")
         name = f"rl-{rl_name(cfg)}"
     domain = p.get("domain") or (p.get("signature") or {}).get("domain")

@@ -281,7 +281,7 @@ class SeedBatch:
         net = ts[0].net
         batches = [mixed_batch(t.memory, t.demos, cfg.batch_size, cfg.demo_fraction, t.rng) for t in ts]
         plans = [
-            TargetPlan(t.net, t.target, t.enc, b, cfg.gamma, cfg.horizon, t.boundary, t.slots)
+            TargetPlan(t.net, t.target, t.enc, b, cfg.gamma, cfg.horizon, t.boundary, t.slots, t.estimator)
             for t, b in zip(ts, batches)
         ]
         live = [s for s, p in enumerate(plans) if not p.empty]

@@ -209,7 +209,9 @@ class TargetPlan:
     task that holds) has that action as its argmax without the online net; with a
     cache, the target net sees only the boundary states it has not valued since the
     last sync; with a slot cache (and the batch's "slots"), the continuing rows'
-    encodings come from it and the target net sees only the slots it has not valued.
+    encodings come from it and the target net sees only the slots it has not valued. The
+    boundary rows are weighted by the layout's P(τ') (the thesis's), or with an estimator
+    (`planning.world.estimators`) by its P(τ' | the task the transition completed).
     """
 
     def __init__(
@@ -222,10 +224,13 @@ class TargetPlan:
         horizon: str,
         cache: BoundaryCache | None = None,
         slots: SlotCache | None = None,
+        estimator=None,
     ):
         if horizon not in ("myopic", "anticipatory"):
             raise DomainError("--horizon", f"'{horizon}' is neither myopic nor anticipatory")
         self.gamma, self.enc, self.cache, self.slots = gamma, enc, cache, slots
+        known = estimator is None or estimator.name == "known"
+        self.estimator = None if known else estimator  # None: the layout's P, as in the thesis
         self.y = torch.as_tensor(batch["rewards"], dtype=torch.float32).clone()
         kinds = np.asarray(batch["kinds"])
         nxt = batch["next_states"]
@@ -285,6 +290,7 @@ class TargetPlan:
             )
             self.columns = _Pairs.columns(target, A)
         self.n, self.k, self.U, self.inv, self.keys, self.hit, self.miss = n, k, U, inv, keys, hit, miss
+        self.comp_tasks = np.asarray(batch["tasks"])[comp]
         self.sl, self.known, self.unknown, self.valid_b, self.mb_b = sl, known, unknown, valid_b, mb_b
 
     def masks_at(self, rows: np.ndarray):
@@ -327,9 +333,15 @@ class TargetPlan:
                     )
         y = self.y
         y[torch.from_numpy(self.cont)] += self.gamma * picked[:n]
-        if len(self.comp):
+        if len(self.comp) and self.estimator is None:
             p = torch.from_numpy(self.enc.task_prob[self.enc.support]).float()
             y[torch.from_numpy(self.comp)] += self.gamma * (picked[n:].reshape(U, k) @ p)[torch.from_numpy(self.inv)]
+        elif len(self.comp):  # P(τ' | the task completed), row by row, from the estimator
+            tasks, sup = self.enc.model.tasks, self.enc.support
+            rows = {t: self.estimator.probabilities(tasks[int(t)])[sup] for t in np.unique(self.comp_tasks)}
+            p = torch.from_numpy(np.stack([rows[t] for t in self.comp_tasks])).float()
+            v = picked[n:].reshape(U, k)[torch.from_numpy(self.inv)]
+            y[torch.from_numpy(self.comp)] += self.gamma * (v * p).sum(1)
         return y
 
 
@@ -342,10 +354,12 @@ def td_targets(
     horizon: str,
     cache: BoundaryCache | None = None,
     slots: SlotCache | None = None,
+    estimator=None,
 ) -> torch.Tensor:
     """Double-DQN targets of Algorithm 1 (lines 11-17) for a batch of stored transitions (`TargetPlan`
-    says how): the online net picks, the target net values."""
-    plan = TargetPlan(online, target, enc, batch, gamma, horizon, cache, slots)
+    says how): the online net picks, the target net values; the boundary's P(τ') from `estimator`
+    (`planning.world.estimators`; None or known: the layout's P)."""
+    plan = TargetPlan(online, target, enc, batch, gamma, horizon, cache, slots, estimator)
     if plan.empty:
         return plan.y
     with torch.inference_mode():

@@ -49,6 +49,8 @@ from planning.atomic import OutputLock, write_text
 from planning.domain.compiler import compile_domain
 from planning.domain.identity import identity
 from planning.errors import DomainError
+from planning.world.estimators import build as build_estimator
+from planning.world.streams import stream as stream_of
 from planning.world.task_stream import PersistentWorld, TaskStream
 
 from .checkpoints import check_domain, network_payload, read_checkpoint, save_checkpoint
@@ -124,6 +126,18 @@ class Config:
     R_goal for a myopic value (its rewards before the completion are costs) and R_goal/(1-γ) for an
     anticipatory one; a fix the thesis does not have, for runs whose Q grows past R_goal. A run with a
     bound keeps its files apart (run folder and checkpoint names end in -bound-<value>)"""
+    stream: str = "iid"
+    """the task stream trained on: iid (domain.toml [tasks], the thesis's) or a [streams.<name>] of the domain
+    (planning.world.streams); a run on another stream keeps its files apart (-stream-<name>)"""
+    estimator: str = "known"
+    """the task distribution of the anticipatory target's boundary, Σ P(τ'|·) Q(s', τ', ·) (planning.world.estimators):
+    known (the layout's i.i.d. P, the thesis's), empirical (counts of the stream seen, with a prior and forgetting),
+    markov (the stream's P(τ'|τ)), markov-empirical (transition counts); another than known keeps its files
+    apart (-est-<name>)"""
+    estimator_prior: float = 1.0
+    """empirical estimators: pseudo-counts of the uniform prior over the support (per row for markov-empirical)"""
+    estimator_forget: float = 1.0
+    """empirical estimators: every count decays by this factor per task seen (1: a plain average)"""
     eval_every: int = 25_000
     """steps between greedy evaluations (best checkpoint selection)"""
     eval_tasks: int = 100
@@ -141,7 +155,16 @@ CHOICES = {
     "explore": ("factored", "uniform"),
     "target_bound": ("none", "return"),
 }
-LEGACY = {"eps_schedule": "reach", "explore": "uniform", "demo_planner": "internal", "target_bound": "none"}
+LEGACY = {
+    "eps_schedule": "reach",
+    "explore": "uniform",
+    "demo_planner": "internal",
+    "target_bound": "none",
+    "stream": "iid",
+    "estimator": "known",
+    "estimator_prior": 1.0,
+    "estimator_forget": 1.0,
+}
 """What a checkpoint written before these settings existed was trained with."""
 
 
@@ -172,9 +195,16 @@ def file_in(folder, name: str, where, field: str) -> Path:
 
 
 def bound_suffix(cfg) -> str:
-    """What a run with a target bound adds to its folder and checkpoint names ('' for the thesis's targets)."""
-    bound = cfg.get("target_bound", "none") if isinstance(cfg, dict) else cfg.target_bound
-    return "" if bound in (None, "none") else f"-bound-{bound}"
+    """What a run with a target bound, another stream than the i.i.d. one or another estimator than the known P
+    adds to its folder and checkpoint names ('' for the thesis's setting)."""
+    get = (lambda k, d: cfg.get(k, d)) if isinstance(cfg, dict) else (lambda k, d: getattr(cfg, k, d))
+    bound, stream, est = get("target_bound", "none"), get("stream", "iid"), get("estimator", "known")
+    out = "" if stream in (None, "iid") else f"-stream-{stream}"
+    if est not in (None, "known"):
+        out += f"-est-{est}"
+        forget = get("estimator_forget", 1.0)
+        out += "" if forget in (None, 1.0) else f"-forget{forget:g}"
+    return out + ("" if bound in (None, "none") else f"-bound-{bound}")
 
 
 def run_name(domain: str, cfg, varied: str = "") -> str:
@@ -286,10 +316,11 @@ def demonstrations(
 
 
 def greedy_evaluation(
-    vf: ValueFunction, model, seed: int, n_tasks: int, gamma: float, r_goal: float, scale: float
+    vf: ValueFunction, model, seed: int, n_tasks: int, gamma: float, r_goal: float, scale: float, task_stream=None
 ) -> dict:
-    """Success rate, PDDL cost, actions and discounted return per task of the greedy policy on a seeded stream."""
-    stream, world = TaskStream(model, seed), PersistentWorld(model)
+    """Success rate, PDDL cost, actions and discounted return per task of the greedy policy on a seeded stream
+    (`task_stream`: a declared stream of `planning.world.streams`; None: i.i.d. from P)."""
+    stream, world = TaskStream(model, seed, task_stream), PersistentWorld(model)
     returns = []
     for _ in range(n_tasks):
         task, reset = stream.next()
@@ -368,7 +399,11 @@ class Trainer:
         )
 
         # -- line 2: the world and the task stream ----------------------------------------------
-        self.stream = TaskStream(model, cfg.seed)
+        self.task_stream = stream_of(model, cfg.stream)
+        self.stream = TaskStream(model, cfg.seed, self.task_stream)
+        self.estimator = build_estimator(
+            cfg.estimator, model, self.task_stream, cfg.estimator_prior, cfg.estimator_forget
+        )
         self.world = PersistentWorld(model)
         self.step = 0
         self.tasks_done = 0
@@ -400,6 +435,8 @@ class Trainer:
             task, reset = self.stream.next()
             if reset is not None:
                 self.world.reset(reset)
+                self.estimator.restart()
+            self.estimator.observe(task)
             before = self.world.state
             if not self.world.begin(task):
                 return
@@ -419,7 +456,9 @@ class Trainer:
     def targets(self, batch: dict) -> torch.Tensor:
         """The minibatch's Double-DQN targets (lines 9-19)."""
         cfg = self.cfg
-        y = td_targets(self.net, self.target, self.enc, batch, cfg.gamma, cfg.horizon, self.boundary, self.slots)
+        y = td_targets(
+            self.net, self.target, self.enc, batch, cfg.gamma, cfg.horizon, self.boundary, self.slots, self.estimator
+        )
         return y if self.y_max is None else y.clamp_(max=self.y_max)
 
     def descend(self, batch: dict, y: torch.Tensor, parts: dict | None = None) -> None:
@@ -535,6 +574,7 @@ class Trainer:
             self.cfg.gamma,
             self.r_goal,
             self.scale,
+            self.task_stream,
         )
         if self.cfg.horizon == "myopic":
             r["demo_q_bias"] = self.demo_q_bias()
@@ -571,7 +611,12 @@ class Trainer:
                 "task_k": self.task_k,
                 "memory": self.memory.state_dict(),
                 "rng": self.rng.bit_generator.state,
-                "stream": {"rng": self.stream.rng.bit_generator.state, "count": self.stream.count},
+                "stream": {
+                    "rng": self.stream.rng.bit_generator.state,
+                    "count": self.stream.count,
+                    "previous": None if self.stream.previous is None else self.stream.previous.index,
+                },
+                "estimator": self.estimator.state_dict(),
                 "world": {
                     "state": w.state,
                     "task": None if w.task is None else w.task.index,
@@ -611,6 +656,10 @@ class Trainer:
         self.rng.bit_generator.state = p["rng"]
         self.stream.rng.bit_generator.state = p["stream"]["rng"]
         self.stream.count = p["stream"]["count"]
+        previous = p["stream"].get("previous")
+        self.stream.previous = None if previous is None else self.model.tasks[previous]
+        if "estimator" in p:
+            self.estimator.load_state_dict(p["estimator"])
         w = p["world"]
         self.world.state = w["state"]
         self.world.task = None if w["task"] is None else self.model.tasks[w["task"]]
