@@ -165,7 +165,9 @@ def test_the_empirical_estimator_counts_with_a_prior_and_forgets(tmp_path):
     for t in (c, c, b):
         est.observe(t)
     p = est.probabilities()
-    assert p[c.index] == pytest.approx(3 / 6) and p[b.index] == pytest.approx(2 / 6) and p[a.index] == pytest.approx(1 / 6)
+    assert (
+        p[c.index] == pytest.approx(3 / 6) and p[b.index] == pytest.approx(2 / 6) and p[a.index] == pytest.approx(1 / 6)
+    )
     forgetful = build("empirical", model, prior=3.0, forget=0.5)
     for t in (c, c, b):
         forgetful.observe(t)  # counts: c 0.5 + 1 = 1.5 then 0.75, b 1
