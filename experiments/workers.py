@@ -117,14 +117,17 @@ _AGENTS: dict = {}
 def play_item(item: dict) -> dict:
     """Play one canonical sequence with a freshly built (or this worker's cached) agent; its rows."""
     model = compile_domain(item["domain"], item["layout"])
-    key = (item["agent"], repr(sorted(item["options"].items())), item["domain"], model.layout)
+    stream = item.get("stream", "iid")
+    key = (item["agent"], repr(sorted(item["options"].items())), item["domain"], model.layout, stream)
     agent = _AGENTS.get(key)
     if agent is None:
         options = agent_options(item["agent"], **item["options"])
         agent = _AGENTS[key] = build(item["agent"], options, model)
+        if stream != "iid":
+            agent.on_stream(stream)
         if item.get("log") and agent.keeps_log:
             agent.set_log(item["log"])
-    seq = load(model, [item["sequence"]])[0]
+    seq = load(model, [item["sequence"]], stream)[0]
     t0 = time.perf_counter()
     protocol = item.get("protocol", DEFAULT_PROTOCOL)
     rows = play_sequence(model, agent, seq, protocol=protocol)
@@ -166,6 +169,7 @@ def play_over_workers(jobs: list, workers: int = 1, use_ray: bool = False, progr
                     "sequence": i,
                     "log": job.log,
                     "protocol": job.protocol,
+                    "stream": job.agent.config.get("stream", "iid"),
                 }
             )
             owners.append(j)

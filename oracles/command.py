@@ -15,14 +15,18 @@ from dataclasses import dataclass
 from planning import cli
 from planning.world.results import DEFAULT_PROTOCOL, FAILURE_PROTOCOLS, default_out
 from planning.world.runner import evaluate
+from planning.world.streams import stream
 
 REFERENCE = "results/myopic-oracle-{layout}.json"
 """The myopic oracle's results file (Fast Downward): every improvement figure is measured against it."""
 
 
-def reference_path(model) -> str:
-    """The myopic oracle's results file of a layout (its name carries the domain's, but for the restaurant)."""
+def reference_path(model, stream: str | None = None) -> str:
+    """The myopic oracle's results file of a layout (its name carries the domain's, but for the restaurant) on
+    the canonical sequences of a stream (None or iid: the i.i.d. ones; another: its name ends -stream-<name>)."""
     path = REFERENCE.format(layout=model.layout)
+    if stream not in (None, "iid"):
+        path = path.replace(".json", f"-stream-{stream}.json")
     return path if model.name == "restaurant" else path.replace("results/", f"results/{model.name}-", 1)
 
 
@@ -40,11 +44,20 @@ class RunOptions:
     """how a failed task is accounted for (`planning.world.results.FAILURE_PROTOCOLS`)"""
     progress: bool = True
     """progress bars"""
+    stream: str = "iid"
+    """the task stream whose canonical sequences are played (`planning.world.streams`)"""
 
     @classmethod
     def from_args(cls, args) -> "RunOptions":
         """The options of a parsed command line (`planning.cli.parser` with `progress`, and `run_options`)."""
-        return cls(args.out, args.force, args.strict, args.failure_protocol, not args.no_progress)
+        return cls(
+            args.out,
+            args.force,
+            args.strict,
+            args.failure_protocol,
+            not args.no_progress,
+            getattr(args, "stream", "iid"),
+        )
 
 
 def run_options(p) -> None:
@@ -64,12 +77,21 @@ def run_options(p) -> None:
         "or abandoned where it stopped (the thesis's protocol; no improvement unless every task "
         "succeeds)",
     )
+    p.add_argument(
+        "--stream",
+        default="iid",
+        help="play the canonical sequences of this task stream (domain.toml [streams.<name>]; default: %(default)s, "
+        "the thesis's); the results file's name ends in -stream-<name>",
+    )
 
 
 def play(model, agent, ids, options: RunOptions, before=None):
     """(results, results path) of the agent on the sequences; `before(out, log)` runs first (e.g. workers)
     and returns the sequences it played, if any. The results are a `planning.world.runner.Evaluation`."""
     protocol = options.failure_protocol
+    if options.stream != "iid":
+        stream(model, options.stream)  # an unknown stream stops here, naming the known ones
+        agent.on_stream(options.stream)
     out = options.out or default_out(agent, model, protocol=protocol)
     log = None
     if agent.keeps_log:
@@ -84,12 +106,13 @@ def play(model, agent, ids, options: RunOptions, before=None):
         agent,
         ids,
         out,
-        reference=reference_path(model),
+        reference=reference_path(model, options.stream),
         force=options.force,
         strict=options.strict,
         progress=options.progress,
         protocol=protocol,
         played_by_workers=elsewhere.get("played", ()),
+        stream=options.stream,
     )
     r.seconds = round(r.seconds + elsewhere.get("wall", 0.0), 1)
     return r, out

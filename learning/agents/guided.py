@@ -17,6 +17,13 @@ and the depth cap default to domain.toml [search] for the layout; where it
 gives no β, β = 1.0 (a one-line warning on stderr, once): only plans as cheap
 as the myopic one are eligible, so the agent plays exactly the myopic plan.
 
+On a declared task stream (`experiments.evaluate --stream NAME`) the terminal score can weigh the next
+task by a distribution estimator instead of the layout's P (`--estimator`, `planning.world.estimators`):
+before each search the estimator sees the tasks posed so far (those that held when drawn too) and the
+value's V_AP becomes Σ_τ' P(τ' | the task) max_a
+Q(s, τ', a). Each sequence starts a fresh estimate (from the prior), so sequences stay independent of
+the order they are played in. The default, known, is the thesis's agent unchanged.
+
 A reference planner other than the default myopic oracle (`--reference-agent
 "NAME [OPTIONS]"`) is built by the agent registry (`experiments.registry.build`,
 which knows every agent; learning/ may not import it) and handed to `from_args`;
@@ -35,6 +42,9 @@ from oracles.myopic import PLANNERS, MyopicOracle
 from planning.errors import DomainError
 from planning.search.bellman_novelty import bellman_novelty_search
 from planning.world.agents import Planner, Reply
+from planning.world.estimators import ESTIMATORS
+from planning.world.estimators import build as build_estimator
+from planning.world.streams import stream as stream_of
 
 
 def search_defaults(model) -> dict:
@@ -81,6 +91,15 @@ class ValueGuidedPlanner(Planner):
         )
         which.add_argument("--value", help=HELP)
         cls.search_options(p)
+        p.add_argument(
+            "--estimator",
+            default="known",
+            choices=list(ESTIMATORS),
+            help="the next task's distribution in V_AP (planning.world.estimators; default: %(default)s, the "
+            "layout's P)",
+        )
+        p.add_argument("--estimator-prior", type=float, default=1.0, help="empirical estimators' pseudo-counts")
+        p.add_argument("--estimator-forget", type=float, default=1.0, help="empirical estimators' decay per task")
 
     @classmethod
     def search_options(cls, p) -> None:
@@ -126,6 +145,9 @@ class ValueGuidedPlanner(Planner):
             args.reference,
             args.time_limit,
             default_reference(args, reference_planner),
+            getattr(args, "estimator", "known"),
+            getattr(args, "estimator_prior", 1.0),
+            getattr(args, "estimator_forget", 1.0),
         )
 
     def __init__(
@@ -138,10 +160,14 @@ class ValueGuidedPlanner(Planner):
         reference="internal",
         time_limit=60.0,
         reference_planner=None,
+        estimator="known",
+        estimator_prior=1.0,
+        estimator_forget=1.0,
     ):
         """`value`: KIND:PATH, KIND, or a checkpoint PATH of `value_kind` (`learning.values`).
         `reference_planner`: the planner of the reference plan (default: the myopic oracle with the
-        `reference` planner and `time_limit`)."""
+        `reference` planner and `time_limit`). `estimator`: the next task's distribution in V_AP
+        (`planning.world.estimators`; known: the layout's P)."""
         d = search_defaults(model)
         if beta is None and "beta" not in d:
             default_beta_warning(model)
@@ -166,6 +192,15 @@ class ValueGuidedPlanner(Planner):
         if (self.beta, self.budget, self.depth_cap) != (d.get("beta"), d.get("budget"), d.get("depth_cap")):
             name += f"-beta{self.beta:g}-budget{self.budget}-depth{self.depth_cap}"
         self.run_name = name + reference_suffix(self.reference)
+        self.estimator_spec, self.estimator = None, None
+        if estimator not in (None, "known"):
+            if not callable(getattr(self.value, "set_distribution", None)):
+                raise DomainError("--estimator", f"the value {self.value_name} takes no task distribution")
+            if estimator != "markov":  # a bad name, prior or forgetting factor stops here
+                build_estimator(estimator, model, None, estimator_prior, estimator_forget)
+            self.estimator_spec = (estimator, float(estimator_prior), float(estimator_forget))
+            self.config["estimator"] = {"name": estimator, "prior": estimator_prior, "forget": estimator_forget}
+            self.run_name += f"-est-{estimator}" + ("" if estimator_forget == 1.0 else f"-forget{estimator_forget:g}")
 
     def value_run_name(self) -> str:
         """The default results name's start: a checkpoint of the agent's own kind named by its file
@@ -179,8 +214,18 @@ class ValueGuidedPlanner(Planner):
         if model is not self.model:
             raise DomainError(model.layout, f"this agent was built for {self.model.name} {self.model.layout}")
         self.reference.start(model, sequence)
+        if self.estimator_spec is not None:  # a fresh estimate per sequence, on the sequence's stream
+            name, prior, forget = self.estimator_spec
+            self.estimator = build_estimator(name, model, stream_of(model, sequence.stream), prior, forget)
+            self.posed, self.seen = list(sequence.tasks), 0
 
     def plan(self, state: int, task, upcoming: list) -> Reply:
+        if self.estimator is not None:  # every task posed so far, those that held when drawn too, then this one
+            now = len(self.posed) - len(upcoming)
+            for seen in self.posed[self.seen : now]:
+                self.estimator.observe(seen)
+            self.seen = now
+            self.value.set_distribution(self.estimator.probabilities(task))
         ref = self.reference.plan(state, task, upcoming)
         r = bellman_novelty_search(
             self.model,

@@ -319,7 +319,7 @@ static int q_compute(const qnet_t *q, int64_t task, const uint64_t *states, int6
 
 /* ---- the memo: values already computed, across searches ------------------------------------------
  * q_max(s, tau) and V_AP(s) are functions of their arguments alone, so a value once computed is kept
- * (key: the state's words and the task, -1 for V_AP) and returned as it is; consecutive searches of a
+ * (key: the state's words and the task; for V_AP a negative key per task distribution, -1 the layout's P) and returned as it is; consecutive searches of a
  * sequence revisit many states. Open addressing; cleared when half full, so it never holds more than
  * `cap` / 2 entries. */
 typedef struct { int64_t W, cap, n; uint64_t *key; double *val; uint8_t *used; int64_t hits, misses; } qnet_memo;
@@ -446,10 +446,12 @@ int qnet_q_max(void *ctx, int64_t task, const uint64_t *states, int64_t n, int64
     return memoized(q, task, task, states, n, W, out, q_fn, NULL, NULL, 0);
 }
 
+/* V_AP under the task distribution `prob` over `support`; `key` (negative) names that distribution in the
+   memo: -1 the layout's P, others one per distribution the caller has used (learning/q/inference.py). */
 int qnet_v_ap(void *ctx, const uint64_t *states, int64_t n, int64_t W, const int32_t *support, const double *prob,
-              int64_t K, double *out) {
+              int64_t K, int64_t key, double *out) {
     const qnet_t *q = (const qnet_t *)ctx;
-    if (W != q->W) return -1;
+    if (W != q->W || key >= 0) return -1;
     for (int64_t k = 0; k < K; k++) if (support[k] < 0 || support[k] >= q->n_tasks) return -1;
-    return memoized(q, -1, 0, states, n, W, out, v_fn, support, prob, K);
+    return memoized(q, key, 0, states, n, W, out, v_fn, support, prob, K);
 }

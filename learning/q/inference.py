@@ -241,6 +241,14 @@ class BatchedQ:
         self.support = enc.support
         self.prob = enc.task_prob[enc.support]
 
+    def set_distribution(self, prob) -> None:
+        """V_AP's task distribution over the support from now on (default: the layout's P): a distribution
+        estimator's P(τ' | the current task), `planning.world.estimators`."""
+        prob = np.asarray(prob, dtype=np.float64)
+        if prob.shape != self.prob.shape:
+            raise ValueError(f"a distribution over the {len(self.prob)} tasks of the support, not {prob.shape}")
+        self.prob = prob
+
     # ---- inputs ------------------------------------------------------------
     def features(self, states) -> np.ndarray:
         """(N, atom rows + 8) float32: the atom bits of int states (or of a packed uint64 array), then the constant."""
@@ -451,6 +459,13 @@ class NativeQ:
         self.fn = ctypes.cast(lib.qnet_q_max, ctypes.c_void_p).value  # the search's bn_native_fn
         self.support = i32(enc.support)
         self.prob = f64(enc.task_prob[enc.support])
+        self.key, self._keys = -1, {self.prob.tobytes(): -1}  # the memo's name of each distribution used
+
+    def set_distribution(self, prob) -> None:
+        """V_AP's task distribution over the support from now on (`BatchedQ.set_distribution`); the memo keeps
+        each distribution's values apart."""
+        self.prob = np.ascontiguousarray(prob, dtype=np.float64)
+        self.key = self._keys.setdefault(self.prob.tobytes(), -1 - len(self._keys))
 
     def __del__(self):
         if getattr(self, "_memo", None):
@@ -489,6 +504,7 @@ class NativeQ:
             self.support.ctypes.data,
             self.prob.ctypes.data,
             len(self.support),
+            self.key,
             out.ctypes.data,
         ):
             raise MemoryError("qnet_v_ap failed")
@@ -513,7 +529,7 @@ def _qnet_lib():
             so.qnet_q_max.restype = ctypes.c_int
             so.qnet_q_max.argtypes = [P, I, P, I, I, P]
             so.qnet_v_ap.restype = ctypes.c_int
-            so.qnet_v_ap.argtypes = [P, P, I, I, P, P, I, P]
+            so.qnet_v_ap.argtypes = [P, P, I, I, P, P, I, I, P]
             so.qnet_memo_new.restype = P
             so.qnet_memo_new.argtypes = [I, I]
             so.qnet_memo_free.argtypes = [P]

@@ -30,7 +30,7 @@ class ValueFunction:
         self.net, self.enc, self.gamma = net, enc, gamma
         self.fast = NumpyQ(net)
         self.batched = BatchedQ(net, enc)
-        self._native, self.memo = None, True
+        self._native, self.memo, self._distribution = None, True, None
 
     @classmethod
     def load(cls, path, model) -> "ValueFunction":
@@ -50,7 +50,24 @@ class ValueFunction:
         if self._native is None:
             lib = _qnet_lib()
             self._native = NativeQ(self.batched, lib, self.memo) if lib is not None else False
+            if self._native and self._distribution is not None:
+                self._native.set_distribution(self._distribution)
         return self._native or None
+
+    def set_distribution(self, probabilities) -> None:
+        """V_AP's task distribution from now on: (instances,) P(τ') of a distribution estimator
+        (`planning.world.estimators`), or None for the layout's P (the thesis's). V_AP(s) becomes
+        Σ_τ' P(τ') max_a Q(s, τ', a) over the support; off-support mass must be 0."""
+        p = None if probabilities is None else np.asarray(probabilities, dtype=np.float64)
+        if p is not None and (
+            p.shape != (len(self.enc.task_prob),) or p[~np.isin(np.arange(len(p)), self.enc.support)].any()
+        ):
+            raise DomainError("estimator", "a task distribution over the layout's tasks, zero off the support of P")
+        self._distribution = None if p is None else p[self.enc.support]
+        prob = self.enc.task_prob[self.enc.support] if p is None else self._distribution
+        self.batched.set_distribution(prob)
+        if self._native:
+            self._native.set_distribution(prob)
 
     def set_memo(self, on: bool) -> None:
         """Keep the compiled engine's values across calls (the default) or not (a fresh engine either way)."""

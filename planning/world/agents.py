@@ -76,6 +76,13 @@ class Agent:
         """Append a JSON-lines record of the agent's own (e.g. the clairvoyant's windows) to `path`, which
         the command puts beside the results file (OUT.windows.jsonl); called only when `keeps_log`."""
 
+    def on_stream(self, stream: str) -> None:
+        """The sequences come from a declared task stream (`planning.world.streams`), not the i.i.d. one: the
+        results record it in `config` and their default name ends in -stream-<name>, so that runs on other
+        streams are never taken for this one's. Called by the evaluation before anything is played."""
+        self.config = {**self.config, "stream": stream}
+        self.run_name = f"{self.run_name}-stream-{stream}"
+
     @property
     def keeps_log(self) -> bool:
         """Whether the agent writes a log (its class overrides `set_log`)."""

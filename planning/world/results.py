@@ -272,7 +272,7 @@ def resume(
         for i in table:
             if i not in canonical:
                 try:
-                    canonical[i] = sequences.load(model, [i])[0]
+                    canonical[i] = sequences.load(model, [i], agent.config.get("stream"))[0]
                 except DomainError:
                     raise DomainError(
                         path,

@@ -338,8 +338,12 @@ def evaluate(
     strict=False,
     protocol: str = DEFAULT_PROTOCOL,
     played_by_workers=(),
+    stream: str | None = None,
 ) -> Evaluation:
     """Play the sequences (resuming from OUT.partial.json), then write and return the results.
+
+    `stream`: whose canonical sequences (`planning.world.sequences`; None: the i.i.d. ones); the agent's
+    config names it (`Agent.on_stream`), so a results file of one stream never extends another's.
 
     Sequences already in a finished OUT of the same agent, configuration, failure protocol and
     domain content are kept, not replayed: `--sequences 0-9` extends a 0-3 run. A finished OUT
@@ -364,16 +368,18 @@ def evaluate(
         check_writable(partial)
     with OutputLock(out, "results file") if out else nullcontext():
         return _evaluate(
-            model, agent, ids, out, partial, progress, reference, force, strict, protocol, played_by_workers
+            model, agent, ids, out, partial, progress, reference, force, strict, protocol, played_by_workers, stream
         )
 
 
 def _evaluate(
-    model, agent, ids, out, partial, progress, reference, force, strict, protocol, played_by_workers
+    model, agent, ids, out, partial, progress, reference, force, strict, protocol, played_by_workers, stream=None
 ) -> Evaluation:
+    if stream not in (None, "iid") and agent.config.get("stream") != stream:
+        raise DomainError("--stream", f"the agent's config does not name stream {stream} (call its on_stream)")
     kept = results.resume(model, agent, out, partial, protocol, force, played_by_workers)
     done, wall, kept_prov = kept.done, kept.wall, kept.provenance
-    seqs = sequences.load(model, ids)
+    seqs = sequences.load(model, ids, stream)
     todo = [s for s in seqs if s.id not in done]
     played = sorted({s.id for s in todo} | ({int(i) for i in played_by_workers} & set(done)))
     seconds = 0.0
@@ -394,7 +400,7 @@ def _evaluate(
             if partial:
                 results.write_partial(partial, agent, model, protocol, wall, done, kept_prov)
         bar.close()
-        seqs = sequences.load(model, sorted(set(ids) | set(done)))
+        seqs = sequences.load(model, sorted(set(ids) | set(done)), stream)
         rows = [r for s in seqs for r in done[s.id]]
         result = Evaluation(
             summary(

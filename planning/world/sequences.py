@@ -33,6 +33,7 @@ class Sequence:
     id: int
     reset_seed: int
     tasks: list  # Task objects of the model
+    stream: str = IID  # the task stream it was drawn from (planning.world.streams)
 
 
 def sequence_dir(model, stream_name: str | None = None) -> Path:
@@ -71,7 +72,12 @@ def load(model, ids=None, stream_name: str | None = None) -> list[Sequence]:
             rec = json.loads(path.read_text())
             if not isinstance(rec, dict) or not isinstance(rec.get("tasks"), list):
                 raise TypeError("not an object with a list of tasks")
-            seq = Sequence(int(rec["id"]), int(rec["reset_seed"]), [model.tasks.get(n) for n in rec["tasks"]])
+            seq = Sequence(
+                int(rec["id"]),
+                int(rec["reset_seed"]),
+                [model.tasks.get(n) for n in rec["tasks"]],
+                stream_name or IID,
+            )
         except DomainError as e:
             raise DomainError(path, e.reason) from None
         except (ValueError, KeyError, TypeError, UnicodeDecodeError) as e:

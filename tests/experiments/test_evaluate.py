@@ -176,7 +176,9 @@ def test_results_json_and_resume(two_room, tmp_path, monkeypatch):
 
     real_load = ev.load
     monkeypatch.setattr(
-        ev, "load", lambda model, ids: [Sequence(i, 100 + i, s.tasks[:6]) for i, s in zip(ids, real_load(model, ids))]
+        ev,
+        "load",
+        lambda model, ids, stream=None: [Sequence(i, 100 + i, s.tasks[:6]) for i, s in zip(ids, real_load(model, ids))],
     )
     agent = RandomPolicy(seed=1)
     first = evaluate(two_room, agent, [0, 1], out, progress=False)
@@ -226,7 +228,9 @@ def test_a_finished_run_is_extended_not_replayed(two_room, tmp_path, monkeypatch
 
     real_load = ev.load
     monkeypatch.setattr(
-        ev, "load", lambda model, ids: [Sequence(i, 100 + i, s.tasks[:4]) for i, s in zip(ids, real_load(model, ids))]
+        ev,
+        "load",
+        lambda model, ids, stream=None: [Sequence(i, 100 + i, s.tasks[:4]) for i, s in zip(ids, real_load(model, ids))],
     )
     evaluate(two_room, RandomPolicy(seed=1), [0], out, progress=False)
     data = json.loads(out.read_text())
@@ -285,7 +289,9 @@ def short_sequences(monkeypatch, n):
 
     real_load = ev.load
     monkeypatch.setattr(
-        ev, "load", lambda model, ids: [Sequence(i, 100 + i, s.tasks[:n]) for i, s in zip(ids, real_load(model, ids))]
+        ev,
+        "load",
+        lambda model, ids, stream=None: [Sequence(i, 100 + i, s.tasks[:n]) for i, s in zip(ids, real_load(model, ids))],
     )
 
 

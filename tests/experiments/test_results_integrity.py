@@ -39,7 +39,9 @@ def short(monkeypatch, n):
 
     real = ev.load
     monkeypatch.setattr(
-        ev, "load", lambda model, ids: [Sequence(i, s.reset_seed, s.tasks[:n]) for i, s in zip(ids, real(model, ids))]
+        ev,
+        "load",
+        lambda model, ids, stream=None: [Sequence(i, s.reset_seed, s.tasks[:n]) for i, s in zip(ids, real(model, ids))],
     )
 
 
