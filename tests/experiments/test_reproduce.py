@@ -102,7 +102,7 @@ def tiny(two_room, tmp_path, monkeypatch):
     monkeypatch.setattr(
         sequences,
         "load",
-        lambda model, ids: [Sequence(i, 100 + i, s.tasks[:3]) for i, s in zip(ids, real_load(model, ids))],
+        lambda model, ids, stream=None: [Sequence(i, 100 + i, s.tasks[:3]) for i, s in zip(ids, real_load(model, ids))],
     )
     monkeypatch.chdir(tmp_path)
     ctx = Context(str(ROOT / "domains" / "restaurant"))
