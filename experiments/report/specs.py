@@ -191,7 +191,8 @@ THESIS_STATS = {
 
 # Table 5.3: the value–search ablation on the three-room restaurant (row keys of the rows it reuses).
 ABLATION = (
-    ("gnn-augmented", "GNN value, native selection"),
+    ("gnn-augmented-focused", "GNN value, native selection (focused candidates, the authors' generator)"),
+    ("gnn-augmented", "GNN value, native selection (clause-library candidates)"),
     ("gnn-augmented-bn", "GNN value, BN search"),
     ("anticipatory-rl-guided", "Anticipatory value, BN search"),
 )
@@ -410,6 +411,8 @@ AGENTS = (
     "myopic-rl-guided",
     "gnn",
     "gnn-augmented",
+    "gnn-focused",
+    "gnn-augmented-focused",
     "anticipatory-rl-greedy",
     "anticipatory-rl-guided",
 )

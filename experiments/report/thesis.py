@@ -52,7 +52,7 @@ def by_task_type(rr) -> dict:
 FIGURE_A5_SEQUENCE = 0
 A4_ROWS = ("myopic-oracle", *AGENTS, "clairvoyant-3")
 A5_ROWS = ("myopic-oracle", *AGENTS, "clairvoyant-3")
-A6_ROWS = ("myopic-oracle", "myopic-rl-guided", "gnn-augmented", "anticipatory-rl-guided")
+A6_ROWS = ("myopic-oracle", "myopic-rl-guided", "gnn-augmented-focused", "anticipatory-rl-guided")
 
 
 def from_logs(draw, path: Path, logs: list[str]) -> tuple[Path | None, int]:
