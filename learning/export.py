@@ -130,8 +130,8 @@ def split_metrics(path: Path) -> tuple[list[dict], list[dict]]:
 
 def key_figures(logs: list[dict], evals: list[dict], refill: str = "refill-water") -> dict:
     """What Appendix A.2 reports of a run (see the module's docstring)."""
-    if not logs:
-        return {"steps": 0}
+    if not logs:  # a run shorter than its log_every: nothing logged yet
+        return {"steps": 0, "train_hours": 0.0}
     last = logs[-1]["step"]
     cumulative, done, prev = {}, 0.0, 0  # refill-water actions since step 0, over the steps
     for r in logs:

@@ -462,3 +462,11 @@ def test_another_domains_export_is_named_after_it(run, tmp_path, monkeypatch):
     checkpoint, figures = default_names(run, gnn=False)
     assert checkpoint == "checkpoints/minimal-rl-myopic-grid-seed0.pt"
     assert figures == "results/minimal-training-myopic-grid-seed0.json"
+
+
+def test_a_run_shorter_than_its_log_interval_exports_its_figures():
+    """A run that logged no row yet (steps < log_every) has key figures the export can print (it crashed on
+    the missing train_hours)."""
+    from learning.export import key_figures
+
+    assert key_figures([], []) == {"steps": 0, "train_hours": 0.0}
