@@ -42,9 +42,6 @@ from .network import FactoredQNet
 from .replay import mixed_batch
 from .targets import TargetPlan
 
-SHARED = ("domain", "layout", "horizon", "steps", "hidden", "batch_size", "lr", "gamma", "target_every")
-"""Settings every seed of one batch must share (all but seed and out, in fact: `check_together`)."""
-
 
 class Stack:
     """S networks of one architecture whose parameters are views into the rows of one (S, P) tensor:

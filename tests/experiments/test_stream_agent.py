@@ -13,16 +13,8 @@ from learning.q.value import load_value_function
 from oracles.command import RunOptions, play
 from planning.atomic import write_json
 from planning.world import sequences
+from tests.learning.test_seeds import walk_states as walk
 from tests.planning.test_streams import grid_with_streams
-
-
-def walk(model, n, seed=0):
-    rng, s, out = np.random.default_rng(seed), model.reset_state(seed), []
-    for _ in range(n):
-        out.append(s)
-        acts = model.applicable(s)
-        s = model.apply(s, int(acts[rng.integers(len(acts))]))
-    return out
 
 
 def tiny_checkpoint(model, path):
