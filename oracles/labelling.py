@@ -21,6 +21,17 @@ and queued again if their f rose (CostLevels.rescore), which keeps the search
 from expanding states only a settled task needed.
 
     python -m oracles.labelling --layout three-room [--state FILE] [--out FILE] [--force]
+        [--stream NAME --estimator markov --after TASK]
+
+P(tau) is the layout's by default. A `planning.world.estimators` estimator replaces it with what an agent
+believes the next task's distribution to be (thesis limitations L1 and L4): `Labeller(model,
+estimator=...)`, and `label(state, after=TASK)` weighs every task's optimal cost by
+P(tau' | after) instead, e.g. the C_AP of a state left by make-coffee under a Markov stream where
+washing-up usually follows. The search is the same (every task is solved from s whatever the weights), so
+one label serves every distribution (`Label.under`). On the command line: `--estimator markov` with
+`--stream NAME` (a declared Markov stream) and `--after TASK`, the task just completed (none: the first
+task of a sequence, the stream's start distribution); `known` is the default. The empirical estimators
+answer from the tasks they have seen, which a single command has not: they are the API's.
 
 --state is checked first (`check_possible`): a state two of whose atoms never hold together in any state
 the layout reaches (from a world reset, by actions and by task consumption) is refused; one the check
@@ -48,6 +59,11 @@ from planning.domain.grounding import atom_text
 from planning.errors import DomainError
 from planning.heuristics import HEURISTICS, build, choose, names
 from planning.search.cost_levels import CostLevels
+from planning.world.estimators import build as build_estimator
+from planning.world.streams import stream
+
+CLI_ESTIMATORS = ("known", "markov")
+"""The estimators --estimator takes: those that need no stream seen so far (see the module)."""
 
 CHUNK = 1 << 16  # rows per goal test: keeps the (rows, conjunctions) arrays small
 
@@ -135,18 +151,34 @@ class Label:
     seconds: float
     closed: int
     complete: bool
+    probabilities: np.ndarray | None = None  # (T,) the distribution c_ap weighs by; None: the layout's P
+
+    def under(self, probabilities) -> float:
+        """C_AP of the same state under another next-task distribution (T,): sum_tau p(tau) C*_tau; inf
+        where p gives weight to a task with no plan."""
+        return expected_cost(np.asarray(probabilities, dtype=float), self.costs)
 
     def as_json(self, tasks) -> dict:
-        """{"c_ap", "tasks": [{"task", "probability", "cost"}]} as --out writes it."""
+        """{"c_ap", "tasks": [{"task", "probability", "cost"}]} as --out writes it (the probabilities
+        c_ap weighs by)."""
+        p = [t.probability for t in tasks] if self.probabilities is None else self.probabilities
         return {
             "c_ap": self.c_ap if np.isfinite(self.c_ap) else None,
             "tasks": [
-                {"task": t.name, "probability": t.probability, "cost": int(c) if c >= 0 else None}
-                for t, c in zip(tasks, self.costs)
+                {"task": t.name, "probability": float(q), "cost": int(c) if c >= 0 else None}
+                for t, q, c in zip(tasks, p, self.costs)
             ],
             "seconds": round(self.seconds, 4),
             "closed": self.closed,
         }
+
+
+def expected_cost(probabilities: np.ndarray, costs: np.ndarray) -> float:
+    """sum_tau p(tau) C*_tau over the tasks; inf if p gives weight to a task with no plan (cost -1)."""
+    solved = costs >= 0
+    if (probabilities[~solved] > 0).any():
+        return float("inf")
+    return float(probabilities @ np.where(solved, costs, 0))
 
 
 class Labeller:
@@ -160,6 +192,8 @@ class Labeller:
     over the unsettled tasks of h_max) or "blind" (Dijkstra). All are admissible, so every label is the
     same exact one. `cache`: memoize the heuristic across searches (CachedHeuristic; not for a row whose
     estimate is a table lookup). `tie_break`: within an f, lower h first (CostLevels); the same labels.
+    `estimator`: a `planning.world.estimators` estimator whose P(tau' | after) replaces the layout's P in
+    C_AP (None: the layout's P, the thesis's label).
     """
 
     def __init__(
@@ -169,8 +203,10 @@ class Labeller:
         time_limit: float | None = None,
         cache: bool = True,
         tie_break: bool = False,
+        estimator=None,
     ):
         self.model, self.time_limit, self.tie_break = model, time_limit, tie_break
+        self.estimator = estimator
         self.bm = BatchedModel(model)
         self.goals = TaskGoals(self.bm, model.tasks)
         self.heuristic = choose(heuristic, model, "multi-goal")
@@ -179,8 +215,9 @@ class Labeller:
             h = CachedHeuristic(h)
         self.h = h
 
-    def label(self, state: int) -> Label:
-        """C_AP of a state exactly as given (apply the finished task's consumption first)."""
+    def label(self, state: int, after=None) -> Label:
+        """C_AP of a state exactly as given (apply the finished task's consumption first). `after`: the task
+        just completed, which the estimator's distribution may depend on (a Markov stream's P(tau' | after))."""
         t0 = time.perf_counter()
         goals, tasks = self.goals, self.goals.tasks
         costs = np.full(len(goals), -1, dtype=np.int64)
@@ -211,10 +248,15 @@ class Labeller:
             if unsettled.sum() < len(open_tasks):
                 levels.rescore()  # the minimum is over fewer tasks now: states opened before may wait
         solved = costs >= 0
-        c_ap = float(goals.probabilities @ np.where(solved, costs, 0))
-        if not solved.all():
-            c_ap = float("inf")
-        return Label(c_ap, costs, time.perf_counter() - t0, levels.closed, not unsettled.any() or levels.exhausted)
+        p = None if self.estimator is None else np.asarray(self.estimator.probabilities(after), dtype=float)
+        if p is None:
+            c_ap = float(goals.probabilities @ np.where(solved, costs, 0))
+            if not solved.all():
+                c_ap = float("inf")
+        else:
+            c_ap = expected_cost(p, costs)
+        complete = not unsettled.any() or levels.exhausted
+        return Label(c_ap, costs, time.perf_counter() - t0, levels.closed, complete, p)
 
 
 def c_ap(model, state: int, heuristic: str = "pdb") -> float:
@@ -463,8 +505,9 @@ def check_possible(model, state: int, where, limit: int = 20_000, max_rounds: in
     return None
 
 
-def labels_file(model, state: int, label: Label, heuristic: str) -> dict:
-    """What --out writes: the domain's identity, the layout, the state's atoms, C_AP and every task's cost."""
+def labels_file(model, state: int, label: Label, heuristic: str, distribution: dict | None = None) -> dict:
+    """What --out writes: the domain's identity, the layout, the state's atoms, C_AP and every task's cost;
+    `distribution` (`distribution_record`) where C_AP weighs by an estimator's P."""
     from planning.domain.identity import identity
 
     return {
@@ -472,13 +515,22 @@ def labels_file(model, state: int, label: Label, heuristic: str) -> dict:
         "layout": model.layout,
         "heuristic": heuristic,
         "state": [atom_text(k) for k in model.true_atoms(state)],
+        **({} if distribution is None else {"distribution": distribution}),
         **label.as_json(model.tasks),
     }
 
 
-def check_replaceable(path, model, state: int) -> None:
-    """A one-line error if `path` holds anything but a labels file of this state, layout and domain content
-    (the same label again may be rewritten; another is replaced only with --force)."""
+def distribution_record(estimator: str, stream: str, after) -> dict | None:
+    """What a labels file records of the distribution its C_AP weighs by (None: the layout's P, which the
+    known estimator is whatever the stream)."""
+    if estimator == "known":
+        return None
+    return {"estimator": estimator, "stream": stream, "after": None if after is None else after.name}
+
+
+def check_replaceable(path, model, state: int, distribution: dict | None = None) -> None:
+    """A one-line error if `path` holds anything but a labels file of this state, layout, domain content and
+    distribution (the same label again may be rewritten; another is replaced only with --force)."""
     from planning.domain.identity import mismatch
 
     path = Path(path)
@@ -495,24 +547,31 @@ def check_replaceable(path, model, state: int) -> None:
         saved.get("layout") != model.layout
         or mismatch(saved, model) is not None
         or sorted(saved.get("state") or []) != atoms
+        or saved.get("distribution") != distribution
     ):
         what = (
             f"layout {saved.get('layout')}"
             if saved.get("layout") != model.layout
             else mismatch(saved, model)
-            or ("a state it does not record" if saved.get("state") is None else "another state")
+            or ("a state it does not record" if saved.get("state") is None else None)
+            or ("another state" if sorted(saved.get("state") or []) != atoms else "another task distribution")
         )
         raise DomainError(path, f"a labels file of {what}; pass --force to replace it, or --out another file")
 
 
-def summary(model, label: Label) -> str:
+def summary(model, label: Label, distribution: dict | None = None) -> str:
     """C_AP and every task's cost, one line per task, for the command line."""
+    under = ""
+    if distribution is not None:
+        after = distribution["after"] or "a sequence's start"
+        under = f" under {distribution['estimator']} (stream {distribution['stream']}, after {after})"
     lines = [
-        f"{model.name} {model.layout}: C_AP = {label.c_ap:.2f} over {len(label.costs)} tasks "
+        f"{model.name} {model.layout}: C_AP = {label.c_ap:.2f}{under} over {len(label.costs)} tasks "
         f"({label.seconds:.2f}s, {label.closed} states closed)"
     ]
-    for t, c in sorted(zip(model.tasks, label.costs), key=lambda x: (-x[1], x[0].name)):
-        lines.append(f"  {t.name:34s} P={t.probability:.5f}  cost {c if c >= 0 else 'none':>5}")
+    p = [t.probability for t in model.tasks] if label.probabilities is None else label.probabilities
+    for t, q, c in sorted(zip(model.tasks, p, label.costs), key=lambda x: (-x[2], x[0].name)):
+        lines.append(f"  {t.name:34s} P={q:.5f}  cost {c if c >= 0 else 'none':>5}")
     return "\n".join(lines)
 
 
@@ -527,11 +586,30 @@ def main() -> None:
     )
     p.add_argument("--heuristic", default="pdb", choices=names("multi-goal"), help="(default: %(default)s)")
     p.add_argument("--time-limit", type=float, default=None, help="seconds for the search (default: none)")
+    p.add_argument(
+        "--stream", default="iid", help="the task stream whose distribution C_AP weighs by (default: %(default)s)"
+    )
+    p.add_argument(
+        "--estimator",
+        default="known",
+        choices=CLI_ESTIMATORS,
+        help="the next task's distribution (planning.world.estimators; default: %(default)s, the layout's P)",
+    )
+    p.add_argument("--after", default=None, help="the task just completed, e.g. 'make-coffee(servingtable)'")
     p.add_argument("--force", action="store_true", help="replace an --out file of another state or domain content")
     args = p.parse_args()
     if args.time_limit is not None and not args.time_limit > 0:
         raise DomainError("--time-limit", f"must be positive, not {args.time_limit}")
     model = compile_domain(args.domain, args.layout)
+    estimator = build_estimator(args.estimator, model, stream(model, args.stream))
+    after = None if args.after is None else model.tasks.get(args.after)
+    if after is not None and args.estimator == "known":
+        raise DomainError(
+            "--after",
+            "the known estimator's P does not depend on the task just completed (pass "
+            "--estimator markov and --stream NAME)",
+        )
+    distribution = distribution_record(args.estimator, args.stream, after)
     state = model.init if args.state is None else read_state(model, args.state)
     where = args.state or f"the start state of {model.layout}"
     if args.state is not None:
@@ -539,9 +617,9 @@ def main() -> None:
         if warning:
             print(f"warning: {warning}", file=sys.stderr)
     if args.out and not args.force:
-        check_replaceable(args.out, model, state)
-    labeller = Labeller(model, args.heuristic, args.time_limit)
-    label = labeller.label(state)
+        check_replaceable(args.out, model, state, distribution)
+    labeller = Labeller(model, args.heuristic, args.time_limit, estimator=None if distribution is None else estimator)
+    label = labeller.label(state, after)
     if not label.complete:
         raise DomainError(where, f"time limit of {args.time_limit}s reached before every task was solved")
     unsolvable = [t.name for t, c in zip(model.tasks, label.costs) if c < 0]
@@ -550,12 +628,12 @@ def main() -> None:
         raise DomainError(
             where, f"task {unsolvable[0]} cannot be completed from this state{more}, so C_AP is undefined"
         )
-    print(summary(model, label))
+    print(summary(model, label, distribution))
     if args.out:
         from planning.atomic import OutputLock
 
         with OutputLock(args.out, "labels file"):
-            write_json(args.out, labels_file(model, state, label, labeller.heuristic))
+            write_json(args.out, labels_file(model, state, label, labeller.heuristic, distribution))
         print(f"wrote {args.out}")
 
 

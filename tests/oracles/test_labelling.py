@@ -212,3 +212,60 @@ def test_cache_and_tie_breaking_change_no_cost(two_room):
         assert (cached.label(s).costs == want).all() and (deep.label(s).costs == want).all()
     h = cached.h
     assert 0 < h.computed < h.calls
+
+
+def test_c_ap_under_a_markov_estimate_weighs_the_same_costs_by_p_given_the_task_done(two_room):
+    """C_AP under the cook-then-clean stream after make-coffee: sum P(tau' | make-coffee) C*_tau', the same
+    search's costs; the known estimate's label is the thesis's."""
+    import numpy as np
+
+    from oracles.labelling import Label
+    from planning.world.estimators import build
+    from planning.world.streams import stream
+
+    s = stream(two_room, "cook-then-clean")
+    known = Labeller(two_room, "pdb").label(two_room.init)
+    markov = Labeller(two_room, "pdb", estimator=build("markov", two_room, s))
+    coffee = two_room.tasks.get("make-coffee(servingtable)")
+    after_coffee = markov.label(two_room.init, after=coffee)
+    assert np.array_equal(after_coffee.costs, known.costs)
+    p = s.probabilities(coffee)
+    assert after_coffee.c_ap == pytest.approx(float(p @ known.costs))
+    assert after_coffee.c_ap == pytest.approx(known.under(p))
+    assert list(after_coffee.probabilities) == list(p)
+    start = markov.label(two_room.init)  # no task done yet: the stream's start distribution
+    assert start.c_ap == pytest.approx(float(s.probabilities(None) @ known.costs))
+    assert abs(after_coffee.c_ap - known.c_ap) > 50  # the restaurant's start state: 402.0 against 628.8
+    assert known.c_ap == pytest.approx(float(np.array([t.probability for t in two_room.tasks]) @ known.costs))
+    assert known.probabilities is None
+    # A task with no plan counts only where the distribution draws it.
+    label = Label(0.0, np.array([10, -1, 30]), 0.0, 0, True)
+    assert label.under(np.array([0.5, 0.0, 0.5])) == pytest.approx(20.0)
+    assert label.under(np.array([0.5, 0.1, 0.4])) == float("inf")
+
+
+def test_command_labels_under_a_stream_and_keeps_each_distribution_apart(tmp_path):
+    """On the grid with a Markov stream (another domain than the restaurant): the file records the
+    distribution, a label under another distribution is not replaced without --force, and --after with the
+    known estimator is a one-line error."""
+    from tests.planning.test_streams import grid_with_streams
+
+    model = grid_with_streams(tmp_path)
+    folder = str(model.files["config"].parent)
+    out = tmp_path / "label.json"
+    cmd = [sys.executable, "-m", "oracles.labelling", "--domain", folder, "--out", str(out)]
+    markov = ["--stream", "alternate", "--estimator", "markov", "--after", "clear(c)"]
+    r = subprocess.run(cmd + markov, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    got = json.loads(out.read_text())
+    assert got["distribution"] == {"estimator": "markov", "stream": "alternate", "after": "clear(c)"}
+    # alternate: clear -> deliver 0.9; deliver(b) and deliver(a) share it by [tasks] arguments (0.8 / 0.2)
+    assert [t["probability"] for t in got["tasks"]] == pytest.approx([0.1, 0.72, 0.18])
+    assert "under markov (stream alternate, after clear(c))" in r.stdout
+    r = subprocess.run(cmd, capture_output=True, text=True)  # the known P into the same file
+    assert r.returncode == 2 and "another task distribution" in r.stderr and r.stderr.count("\n") == 1
+    r = subprocess.run(cmd + ["--after", "clear(c)", "--force"], capture_output=True, text=True)
+    assert r.returncode == 2 and "--after" in r.stderr and r.stderr.count("\n") == 1
+    r = subprocess.run(cmd + ["--force"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "distribution" not in json.loads(out.read_text())
