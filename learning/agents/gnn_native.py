@@ -125,8 +125,10 @@ class CandidateCache:
     The candidates depend on the state, the task, the myopic planner and the clause settings, never on
     the model that scores them: the four seeds of a model, faithful or augmented, meet the same states
     for long stretches (they mostly keep the myopic plan), so every run after the first replays most
-    of its planning. One JSON line per entry, appended in one write (runs in parallel can share a file;
-    an interrupted write leaves at most a half last line, which is skipped); the first line names the
+    of its planning. One JSON line per entry, appended in one write (runs in parallel can share a file:
+    on a miss the lines other runs appended since are read first, so two seeds played in opposite
+    orders of the sequences, `--sequences 9,8,...,0`, each replay what the other planned; an
+    interrupted write leaves at most a half last line, which is skipped); the first line names the
     domain's identity (`planning.domain.identity`: the content of its files, not their comments or
     layout) and the settings, and a file of another domain or settings is a one-line error.
     Only candidates whose searches all finished are kept (a time limit's answer is not the planner's).
@@ -141,15 +143,18 @@ class CandidateCache:
         self.header = {"format": self.FORMAT, **identity(model), "layout": model.layout, **settings}
         self.table: dict = {}
         self.hits = self.misses = 0
+        self.offset, self.line = 0, 1  # the bytes read so far, and the number of the next line
         if self.path.is_file():
             self._load()
         else:
             self._append(self.header)
+            self.offset, self.line = self.path.stat().st_size, 2
 
     def _load(self) -> None:
-        lines = self.path.read_text().split("\n")
+        data = self.path.read_bytes()
+        first, _, _ = data.partition(b"\n")
         try:
-            header = json.loads(lines[0])
+            header = json.loads(first)
         except json.JSONDecodeError:
             raise DomainError(
                 self.path, "not a candidate cache (its first line is not JSON); delete it to replan"
@@ -161,24 +166,54 @@ class CandidateCache:
                 f"made for another domain or settings ({', '.join(diff)} differ); "
                 "delete it or pass another --candidates",
             )
-        for n, line in enumerate(lines[1:], 2):
-            if not line.strip():
-                continue
+        self.offset, self.line = len(first) + 1, 2
+        self._read(data[self.offset :], at_load=True)
+
+    def _read(self, data: bytes, at_load: bool = False) -> None:
+        """The entries of the complete lines of `data` (the file from `offset` on) into the table. A last line
+        without its newline is left for later (a run in parallel may be writing it); at load, one that does
+        not parse is a write cut short by an interruption: skipped, and planned again."""
+        end = data.rfind(b"\n") + 1
+        lines = data[:end].decode().split("\n")[:-1]
+        tail = data[end:]
+        for line in lines:
+            self._entry(line, self.line)
+            self.line += 1
+        self.offset += end
+        if at_load and tail.strip():
             try:
-                e = json.loads(line)
-                plans = [[self.model.action(a) for a in p] for _, p in e["plans"]]
-                self.table[(int(e["state"], 16), e["task"])] = (
-                    [c for c, _ in e["plans"]],
-                    plans,
-                    int(e["dropped"]),
-                    int(e["in_region"]),
-                )
-            except (json.JSONDecodeError, KeyError, TypeError, ValueError) as err:
-                if n == len(lines):  # a write cut short by an interruption: planned again
-                    continue
-                raise DomainError(
-                    self.path, f"line {n} is not a candidate entry ({err}); delete the file to replan"
-                ) from None
+                self._entry(tail.decode(), self.line)
+            except DomainError:
+                pass
+            self.offset += len(tail)
+
+    def _entry(self, line: str, n: int) -> None:
+        if not line.strip():
+            return
+        try:
+            e = json.loads(line)
+            plans = [[self.model.action(a) for a in p] for _, p in e["plans"]]
+            self.table[(int(e["state"], 16), e["task"])] = (
+                [c for c, _ in e["plans"]],
+                plans,
+                int(e["dropped"]),
+                int(e["in_region"]),
+            )
+        except (json.JSONDecodeError, KeyError, TypeError, ValueError, UnicodeDecodeError) as err:
+            raise DomainError(
+                self.path, f"line {n} is not a candidate entry ({err}); delete the file to replan"
+            ) from None
+
+    def _refresh(self) -> None:
+        """The entries runs in parallel appended since this one last read the file."""
+        try:
+            with open(self.path, "rb") as f:
+                f.seek(self.offset)
+                data = f.read()
+        except OSError:
+            return
+        if data:
+            self._read(data)
 
     def _append(self, entry: dict) -> None:
         self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -189,8 +224,12 @@ class CandidateCache:
             os.close(fd)
 
     def get(self, state: int, task):
-        """(names, plans, dropped, in region) of the candidates, or None if never planned."""
+        """(names, plans, dropped, in region) of the candidates, or None if never planned (here or by a run in
+        parallel)."""
         hit = self.table.get((state, task.name))
+        if hit is None:
+            self._refresh()
+            hit = self.table.get((state, task.name))
         self.hits += hit is not None
         self.misses += hit is None
         return hit

@@ -5,6 +5,7 @@ exactly when the exact C_AP says it pays."""
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -265,3 +266,25 @@ def test_the_candidate_cache_keys_on_the_domain_content_not_its_comments(tmp_pat
     )
     with pytest.raises(DomainError, match="another domain or settings"):
         CandidateCache(compile_domain(folder, "grid"), cache, settings)
+
+
+def test_runs_in_parallel_share_the_candidate_cache_as_they_plan(tmp_path, minimal):
+    """Two runs open one cache file: what one plans, the other finds on its next miss; a line still being
+    written (no newline yet) is read once it is complete."""
+    from learning.agents.gnn_native import CandidateCache
+
+    path, settings = tmp_path / "c.jsonl", {"max_clauses": 10}
+    a, b = CandidateCache(minimal, path, settings), CandidateCache(minimal, path, settings)
+    task, plan = minimal.tasks[0], [0, 1]
+    assert b.get(minimal.init, task) is None
+    a.put(minimal.init, task, ["myopic"], [plan], 0, 1)
+    assert b.get(minimal.init, task) == (["myopic"], [plan], 0, 1)
+    other = minimal.tasks[1]
+    line = json.dumps({"state": format(7, "x"), "task": other.name, "dropped": 2, "in_region": 3, "plans": []})
+    with open(path, "a") as f:
+        f.write(line[:10])
+    assert b.get(7, other) is None
+    with open(path, "a") as f:
+        f.write(line[10:] + "\n")
+    assert b.get(7, other) == ([], [], 2, 3)
+    assert CandidateCache(minimal, path, settings).get(7, other) == ([], [], 2, 3)
