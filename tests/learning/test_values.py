@@ -6,6 +6,7 @@ import json
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from experiments.registry import agent_class, agent_options, build
@@ -258,3 +259,56 @@ def test_value_rank_and_bench_bn_take_a_value_by_name(minimal, tmp_path, monkeyp
     r = json.loads(out.read_text())
     assert (r["value"], r["checkpoint"], r["same_plans"]) == ("exact", None, r["searched_tasks"])
     assert r["searched_tasks"] > 0
+
+
+class _ExactOneTask:
+    """V_AP = -C_AP / cost_scale, labelled exactly: the value that credits every atom its one-task saving."""
+
+    def __init__(self, model):
+        from oracles.labelling import Labeller
+
+        self.gamma, self.model, self.labeller = 1.0, model, Labeller(model)
+
+    def q_max(self, states, task):
+        return self.v_ap(states)
+
+    def v_ap(self, states):
+        return np.array([-self.labeller.label(s).c_ap / self.model.cost_scale for s in states])
+
+
+def _walk_dataset(model, folder, n):
+    from planning.domain.grounding import atom_text
+
+    states = list(dict.fromkeys(model.random_walk_states(n, seed=1)))
+    folder.mkdir()
+    meta = {
+        "domain": model.name,
+        "layout": model.layout,
+        "n": len(states),
+        "c_ap": [0.0] * len(states),
+        "atoms": [[atom_text(k) for k in model.true_atoms(s)] for s in states],
+    }
+    (folder / "meta.json").write_text(json.dumps(meta))
+    return states
+
+
+def test_value_credit_of_an_atom_against_its_exact_saving(two_room, minimal, tmp_path):
+    """--credit: a value that is -C_AP credits the filled jar exactly its saving, the zero value nothing; on
+    the grid every robot position excludes the others, so no state can take a second one (one-line error)."""
+    from learning.values.rank import credit
+    from planning.value import ZeroValue
+
+    _walk_dataset(two_room, tmp_path / "two-room", 12)
+    c = credit(
+        [_ExactOneTask(two_room), ZeroValue()], str(tmp_path / "two-room"), "domains/restaurant", "has-water  jar_0", 6
+    )
+    assert c["atom"] == "(has-water jar_0)" and c["pairs"] == 6
+    exact, zero = c["values"]
+    assert exact["credit_mean"] == pytest.approx(c["exact_saving"]["mean"], abs=0.01)
+    assert c["exact_saving"]["mean"] > 0  # a filled jar makes serve-water cheaper
+    assert zero["credit_mean"] == 0 and zero["ranks_prepared_higher"] == 0
+    _walk_dataset(minimal, tmp_path / "grid", 20)
+    with pytest.raises(DomainError, match="no labelled state"):
+        credit([ZeroValue()], str(tmp_path / "grid"), "domains/minimal", "(robot-at b)")
+    with pytest.raises(DomainError, match="not a reachable fluent atom"):
+        credit([ZeroValue()], str(tmp_path / "grid"), "domains/minimal", "(robot-at moon)")
