@@ -21,6 +21,12 @@ Per task, the candidates are
         then in library order. (On the restaurant every location is one move from every other, so this
         region is the whole map and the cut at 10 drops the clauses that need a fill: the reason the
         restaurant declares the focused generator.)
+The augmented candidates are planned by one A* (the minimum over their goals of an admissible heuristic,
+`planning.search.optimal.optimal_plans`), by default with the larger of the pattern databases' estimate and
+LM-cut's (`learning.gnn.candidates.JOINT_HEURISTIC`, as the dataset's clauses); `--joint-heuristic pdb` takes
+the pattern databases alone: the same costs, in a fraction of the time where the plans are long (four
+three-room candidate sets of sequence 0: 82.7 s in all against more than 225 s, one search of which ran out
+of its time), and another optimal plan where several tie. Results files and the candidate cache record it.
 Each candidate is scored by its cost plus the model's Ĉ_AP of its post-consumption end state (one
 batched forward pass for all of them; γ = 1); the lowest score wins, and the myopic plan is kept unless
 another scores strictly lower (the authors' loop: an augmented candidate replaces the incumbent only
@@ -44,11 +50,13 @@ from pathlib import Path
 import numpy as np
 
 from learning.agents.greedy import checkpoint_run_name
-from learning.gnn.candidates import FocusedCandidates, Region, actions_along
+from learning.gnn.candidates import JOINT_HEURISTIC, FocusedCandidates, Region, actions_along
 from learning.gnn.value import GNNValue, model_summary
 from planning.errors import DomainError
 from planning.world.agents import Planner, Reply
 
+JOINT_HEURISTICS = (JOINT_HEURISTIC, "pdb", "lmcut")
+"""`--joint-heuristic`: admissible heuristics of the augmented candidates' searches (`planning.heuristics`)."""
 GENERATORS = ("domain", "clause-library")
 """`--generator`: the domain's declared candidates, or the dataset's clause library regardless."""
 MAX_CLAUSES = 10
@@ -295,6 +303,13 @@ class GNNNativePlanner(Planner):
             action="store_true",
             help="also label every scored candidate with the exact C_AP (oracles.labelling), for the record",
         )
+        p.add_argument(
+            "--joint-heuristic",
+            default=JOINT_HEURISTIC,
+            choices=JOINT_HEURISTICS,
+            help="the admissible heuristic of the augmented candidates' searches: the same costs, other "
+            "optimal plans where several tie (default: %(default)s; see the module)",
+        )
 
     @classmethod
     def from_args(cls, args, model) -> "GNNNativePlanner":
@@ -307,6 +322,7 @@ class GNNNativePlanner(Planner):
             args.exact_labels,
             candidates=args.candidates,
             generator=getattr(args, "generator", "domain"),
+            joint_heuristic=getattr(args, "joint_heuristic", JOINT_HEURISTIC),
         )
 
     def __init__(
@@ -320,6 +336,7 @@ class GNNNativePlanner(Planner):
         estimate=None,
         candidates: str | None = "none",
         generator: str = "domain",
+        joint_heuristic: str = JOINT_HEURISTIC,
     ):
         """`estimate(states) -> Ĉ_AP array`: the scorer (default: the checkpoint's GNNValue.c_ap).
         `max_clauses`: None for the domain's [gnn.candidates] max_clauses (else MAX_CLAUSES).
@@ -329,6 +346,9 @@ class GNNNativePlanner(Planner):
 
         if generator not in GENERATORS:
             raise DomainError("--generator", f"'{generator}' is not one of {', '.join(GENERATORS)}")
+        if joint_heuristic not in JOINT_HEURISTICS:
+            raise DomainError("--joint-heuristic", f"'{joint_heuristic}' is not one of {', '.join(JOINT_HEURISTICS)}")
+        self.joint_heuristic = joint_heuristic
         declared = FocusedCandidates.from_model(model)
         self.focused = declared if generator == "domain" else None
         if max_clauses is None:
@@ -383,29 +403,30 @@ class GNNNativePlanner(Planner):
 
         self.bm = BatchedModel(model)
         self.hmax = HMax(model, self.bm)
-        from learning.gnn.dataset import JOINT_HEURISTIC
-
         if self.focused is None:
             settings = {
                 "reference": reference,
                 "max_clauses": self.max_clauses,
                 "min_clause_cost": self.min_cost,
                 "clauses": len(self.library),
-                "joint_heuristic": JOINT_HEURISTIC,
+                "joint_heuristic": joint_heuristic,
             }
         else:
             settings = {
                 "reference": reference,
                 "max_clauses": self.max_clauses,
-                "joint_heuristic": JOINT_HEURISTIC,
+                "joint_heuristic": joint_heuristic,
                 "generator": self.focused.describe(),
             }
         if candidates is None:
             kind = "" if self.focused is None else "-focused"
-            candidates = f"runs/gnn/candidates/{model.name}-{model.layout}-{reference}{kind}-c{self.max_clauses}.jsonl"
+            h = "" if joint_heuristic == JOINT_HEURISTIC else f"-{joint_heuristic}"
+            candidates = (
+                f"runs/gnn/candidates/{model.name}-{model.layout}-{reference}{kind}-c{self.max_clauses}{h}.jsonl"
+            )
         self.cache = None if candidates == "none" else CandidateCache(model, candidates, settings)
         self.config["candidates"] = None if self.cache is None else str(self.cache.path)
-        self.config["joint_heuristic"] = JOINT_HEURISTIC
+        self.config["joint_heuristic"] = joint_heuristic
 
     def start(self, model, sequence) -> None:
         if model is not self.model:
@@ -461,7 +482,7 @@ class GNNNativePlanner(Planner):
         """[(clause text, plan)] of the augmented candidates, how many were dropped, how many clauses
         the generator proposed (before the cap), and whether every search finished (no time limit cut
         one short). `plan`: the myopic plan's actions (default: recovered from the path)."""
-        from learning.gnn.dataset import JOINT_HEURISTIC, JointGoal
+        from learning.gnn.dataset import JointGoal
         from planning.search.optimal import optimal_plans
 
         clauses, proposed = self.proposed(state, myopic_path, plan)
@@ -472,7 +493,7 @@ class GNNNativePlanner(Planner):
             state,
             [JointGoal(task, c.bindings[0].pos, c.bindings[0].neg) for c in clauses],
             time_limit=self.time_limit,
-            heuristic=JOINT_HEURISTIC,  # one A* for all of them
+            heuristic=self.joint_heuristic,  # one A* for all of them
             prefer=lambda i, plan: self._in_full(state, plan, task, clauses[i]),
         )
         out, dropped, complete = [], 0, all(r.complete for r in joint)
@@ -490,10 +511,9 @@ class GNNNativePlanner(Planner):
     def _clause_then_task(self, state: int, task, clause) -> tuple[list | None, bool]:
         """The clause's optimal plan, then the task's from there (for a joint plan that completes the
         task early), if the runner executes it in full; and whether both searches finished."""
-        from learning.gnn.dataset import JOINT_HEURISTIC
         from planning.search.optimal import optimal_plan
 
-        first = optimal_plan(self.bm, state, clause, time_limit=self.time_limit, heuristic=JOINT_HEURISTIC)
+        first = optimal_plan(self.bm, state, clause, time_limit=self.time_limit, heuristic=self.joint_heuristic)
         if not first.plan:
             return None, first.complete
         p1 = self._path(state, first.plan)

@@ -63,6 +63,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from learning.gnn.candidates import JOINT_HEURISTIC
 from oracles.rollouts import faithful_states
 from planning import cli
 from planning.atomic import OutputLock, write_json
@@ -164,14 +165,6 @@ class ClauseLibrary:
             for k, lits in zip(false, goal)
             if int(cost[lits].max()) >= min_cost and int(cost[lits].max()) < np.iinfo(np.int32).max // 4
         ]
-
-
-# A task with a clause is planned with the larger of the pattern databases' estimate and LM-cut's. Neither is
-# better alone: on a three-room state, make-coffee with the jar brought to the countertop closes 1.8 million
-# states with the PDBs and 138,421 with LM-cut, and make-coffee with a bowl moved 495,506 and 2,431; but on
-# another, wash(bowls) with its clauses takes the PDBs seconds and LM-cut minutes. All are admissible: the
-# cost is the same.
-JOINT_HEURISTIC = "pdb+lmcut"
 
 
 class JointGoal:

@@ -288,3 +288,30 @@ def test_runs_in_parallel_share_the_candidate_cache_as_they_plan(tmp_path, minim
         f.write(line[10:] + "\n")
     assert b.get(7, other) == ([], [], 2, 3)
     assert CandidateCache(minimal, path, settings).get(7, other) == ([], [], 2, 3)
+
+
+def test_every_joint_heuristic_plans_the_same_candidate_costs_and_is_recorded(tmp_path, monkeypatch):
+    """--joint-heuristic changes how the augmented candidates are searched, not what they cost: the grid's
+    park-on-B choice is the same under each; the config and the default cache file name say which."""
+    from learning.agents.gnn_native import JOINT_HEURISTICS
+    from oracles.labelling import Labeller
+
+    folder = tmp_path / "grid"
+    shutil.copytree(ROOT / "domains/minimal", folder)
+    (folder / "domain.toml").write_text((folder / "domain.toml").read_text() + PARK.format(hops=3))
+    model = compile_domain(folder, "grid")
+    labeller = Labeller(model)
+    exact = lambda states: np.array([labeller.label(s).c_ap for s in states])
+    state, task = model.state_from_atoms(["(robot-at x1y0)", "(holding apple)"]), model.tasks.get("clear(c)")
+    monkeypatch.chdir(tmp_path)
+    seen = {}
+    for h in JOINT_HEURISTICS:
+        agent = GNNNativePlanner(model, "exact C_AP", estimate=exact, candidates=None, joint_heuristic=h)
+        agent.start(model, None)
+        r = agent.plan(state, task, [])
+        seen[h] = (r.info["chosen"], r.info["candidate_costs"])
+        assert agent.config["joint_heuristic"] == h
+        assert agent.config["candidates"].endswith("-c10.jsonl" if h == "pdb+lmcut" else f"-c10-{h}.jsonl")
+    assert all(v == ("(at apple b)", [2, 2, 4]) for v in seen.values()), seen
+    with pytest.raises(DomainError, match="--joint-heuristic"):
+        GNNNativePlanner(model, "exact C_AP", estimate=exact, joint_heuristic="blind")
