@@ -9,7 +9,9 @@ evaluation a table row expects whose checkpoint exists and whose results file
 does not (or is unfinished, or lacks sequences the row needs); runs another process
 is writing, runs whose agent is not registered and runs without a checkpoint
 are left, and listed with their commands. --discount-sweep also trains the
-Table A.5 runs (long). Then, and alone with --report-only (well under a
+Table A.5 runs (long); --streams also plays the task-stream section's missing evaluations
+(`experiments.report.streams`: a Fast Downward myopic oracle and clairvoyant windows per declared stream,
+hours). Then, and alone with --report-only (well under a
 minute), it writes the report (default docs/results.md) and its figures
 (docs/figures/*.png beside it): `experiments.report.thesis`. The rows, files
 and commands are in `experiments.report.specs`; which files are used and which
@@ -65,21 +67,24 @@ def run_missing(rows, ctx: Context, ids=ALL, progress: bool = True, via: str = "
     from oracles.command import reference_path
     from planning.world.runner import evaluate
 
-    todo = [run for row in rows for run in row.runs if needs_run(load_run(run, ctx), ids)]
-    todo.sort(key=lambda run: run.agent != "myopic-oracle")
+    todo = {run.out: run for row in rows for run in row.runs if needs_run(load_run(run, ctx), ids)}
+    todo = sorted(todo.values(), key=lambda run: run.agent != "myopic-oracle")
     written = []
     for run in tqdm(todo, desc="runs", unit="run", disable=not progress):
         model, agent = ctx.model(run.layout), ctx.agent(run)
         if agent.keeps_log:
             agent.set_log(f"{run.out}.windows.jsonl")
+        opts = list(run.options)
+        stream = opts[opts.index("--stream") + 1] if "--stream" in opts else None
         evaluate(
             model,
             agent,
             list(ids),
             run.out,
             progress=progress,
-            reference=reference_path(model),
+            reference=reference_path(model, stream),
             protocol=run_protocol(run),
+            stream=stream,
         )
         stamp(run, via)
         written.append(run.out)
@@ -149,6 +154,9 @@ def main() -> None:
     )
     p.add_argument("--report-only", action="store_true", help="only read the results and write the report")
     p.add_argument("--discount-sweep", action="store_true", help="also train the Table A.5 runs (long)")
+    p.add_argument(
+        "--streams", action="store_true", help="also play the task-stream section's missing evaluations (hours)"
+    )
     args = p.parse_args()
     ctx = Context(args.domain)
     restaurant = is_thesis_domain(ctx)
@@ -162,6 +170,8 @@ def main() -> None:
     unknown = [x for x in layouts if x not in known]
     if unknown or not layouts:
         raise DomainError("--layouts", f"'{args.layouts}' names no known layout (known: {', '.join(known)})")
+    if args.streams and not restaurant:
+        raise DomainError("--streams", f"plays the restaurant's task-stream section, not {args.domain}'s")
     if args.discount_sweep and not restaurant:
         raise DomainError("--discount-sweep", f"trains the restaurant's Table A.5 runs, not {args.domain}'s")
     command = " ".join(["python -m experiments.reproduce", *map(shlex.quote, sys.argv[1:])])
@@ -176,6 +186,12 @@ def main() -> None:
         )
         written = run_missing(rows, ctx, progress=not args.no_progress, via=command)
         print(f"ran {len(written)} evaluations", file=sys.stderr)
+        if args.streams and restaurant:
+            from experiments.report import streams
+
+            extra = [row for rows in streams.load_specs(ctx, layouts) for row in rows]
+            written = run_missing(extra, ctx, progress=not args.no_progress, via=command)
+            print(f"ran {len(written)} task-stream evaluations", file=sys.stderr)
         if args.discount_sweep:
             train_discount_sweep(not args.no_progress)
     start = time.perf_counter()

@@ -154,7 +154,10 @@ class Context:
         run_options(p)  # --failure-protocol and the other options every evaluation takes
         cls.options(p)
         args = p.parse_args(["--domain", self.domain, *run.argv])
-        return cls.from_args(args, self.model(run.layout))
+        agent = cls.from_args(args, self.model(run.layout))
+        if args.stream != "iid":  # as the evaluation does: the stream is in its config and its name
+            agent.on_stream(args.stream)
+        return agent
 
 
 def load_run(run: Run, ctx: Context) -> Loaded:

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from experiments.report import figures as figs
-from experiments.report import provenance, reference, tables
+from experiments.report import provenance, reference, streams, tables
 from experiments.report.data import Context, curve, improvement, load_rows, sha256
 from experiments.report.specs import AGENTS, THESIS, THESIS_MINIMAL, discount_runs, rl_run_dir, training_logs
 from experiments.report.specs import rows as row_specs
@@ -269,6 +269,8 @@ def report(layouts, ctx: Context, out: Path, command: str) -> str:
                     "",
                 ]
     lines += ["## Table A.5: the discount sweep (optional)", "", *tables.discount_table(), ""]
+    lines += ["## Task streams: unknown, drifting and correlated (beyond the thesis)", ""]
+    lines += streams.section(ctx, layouts, folder)
     ckpts = [
         str(p)
         for layout in layouts

@@ -222,6 +222,8 @@ def test_report_only_from_the_committed_results(tmp_path, monkeypatch):
         "## Share of the clairvoyant",
         "## Statistics",
         "## Figures",
+        "## Task streams",
+        "### three-room, stream cook-then-clean (markov)",
         "## Runs not yet made",
         "## Provenance of the results files",
     ):
@@ -328,3 +330,61 @@ def test_both_reports_open_and_close_with_their_provenance():
         "|" + "---|" * 10,
         "",
     ]
+
+
+# ---- task streams ---------------------------------------------------------------------------
+def test_stream_rows_name_the_files_the_trainer_exports_and_the_evaluation_writes():
+    """The stream section's runs: each estimator row's checkpoint is what learning.export names a run of that
+    stream and estimator, its evaluation plays the stream with the estimator, the reference is the stream's."""
+    from experiments.report import streams
+    from learning.export import rl_name
+
+    ctx = Context(str(ROOT / "domains" / "restaurant"))
+    assert streams.stream_names(ctx.model("three-room")) == [
+        ("iid", "iid"),
+        ("cook-then-clean", "markov"),
+        ("lunch-rush", "drift"),
+    ]
+    rows = {r.key: r for r in streams.rows(ctx, "three-room", "lunch-rush", "drift")}
+    assert list(rows) == [
+        "myopic-oracle",
+        "clairvoyant-2",
+        "clairvoyant-3",
+        "iid-agent",
+        "est-empirical",
+        f"est-empirical-forget{streams.FORGET:g}",
+    ]
+    assert rows["myopic-oracle"].runs[0].out == "results/myopic-oracle-three-room-stream-lunch-rush.json"
+    run = rows[f"est-empirical-forget{streams.FORGET:g}"].runs[0]
+    cfg = {
+        "horizon": "anticipatory",
+        "layout": "three-room",
+        "seed": 0,
+        "stream": "lunch-rush",
+        "estimator": "empirical",
+        "estimator_forget": streams.FORGET,
+    }
+    assert run.checkpoint == f"checkpoints/rl-{rl_name(cfg)}.pt"
+    assert "--stream lunch-rush --estimator empirical --estimator-forget 0.95 &&" in run.train
+    assert run.command.endswith(
+        f"--estimator empirical --estimator-forget 0.95 --stream lunch-rush --out results/rl-guided-{rl_name(cfg)}.json"
+    )
+    iid = {r.key: r for r in streams.rows(ctx, "two-room", "iid", "iid")}
+    assert [r.out for r in iid["iid-agent"].runs] == [
+        f"results/rl-guided-anticipatory-two-room-seed{s}.json" for s in (0, 4, 8, 16)
+    ]  # Table 5.2's own files
+    assert "--stream" not in iid["est-empirical"].runs[0].options
+
+
+def test_a_stream_run_is_played_on_its_stream_and_read_back(tiny):
+    """reproduce's runner plays a stream row on that stream (the agent's config and file say so), and the report
+    reads it back as the row's; the same file without the stream in its config is not taken for it."""
+    ctx, _, _ = tiny
+    run = Run("random", "two-room", ("--seed", "1", "--stream", "cook-then-clean"), "random-stream.json")
+    row = Row("random", "Random", "two-room", (run,))
+    assert run_missing([row], ctx, ids=[0, 1], progress=False) == [run.out]
+    data = json.loads(Path(run.out).read_text())
+    assert data["config"]["stream"] == "cook-then-clean"
+    assert load_run(run, ctx).used
+    plain = Run("random", "two-room", ("--seed", "1"), run.out)
+    assert not load_run(plain, ctx).used
