@@ -10,7 +10,8 @@ Every field of `learning.q.training.Config` is a flag (defaults: Table A.2, then
 DIR/best.pt; prints the run's last figures. Several seeds are independent runs (each its own
 world, stream, memories, exploration and target network, each in its own folder: DIR/seed<N>
 with --out) whose updates are batched together (`learning.q.seeds`): the same algorithm as
-training each alone, at a fraction of the cost per update.
+training each alone, at a fraction of the cost per update. `--device cuda` trains one run's
+networks on a GPU (`learning.device`).
 """
 
 from __future__ import annotations
@@ -43,6 +44,11 @@ def main() -> None:
         help="seed of the run, or several comma-separated seeds trained together in one process (default 0)",
     )
     p.add_argument(
+        "--device",
+        default=None,
+        help="where the networks train: cpu (the default) or cuda[:N] (learning.device; one seed at a time)",
+    )
+    p.add_argument(
         "--fresh",
         action="store_true",
         help="ignore an existing last.pt and start over (the run's metrics.jsonl, best.pt and last.pt are replaced)",
@@ -54,7 +60,7 @@ def main() -> None:
     for seed in seeds:
         out = given["out"] if len(seeds) == 1 or given["out"] is None else f"{given['out']}/seed{seed}"
         cfgs.append(make_config(**{**given, "seed": seed, "out": out}))
-    for trainer in train_runs(cfgs, fresh=args.fresh, progress=not args.no_progress):
+    for trainer in train_runs(cfgs, fresh=args.fresh, progress=not args.no_progress, device=args.device):
         cfg, row, best = trainer.cfg, last_row(trainer.metrics), trainer.best or {}
         print(
             f"{cfg.horizon} {cfg.layout} seed {cfg.seed}: step {trainer.step}, success (last 100) "

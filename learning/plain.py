@@ -28,6 +28,7 @@ def to_plain(obj):
     """obj with numpy arrays and scalars put into plain types (an array: a uint8 tensor of its bytes,
     its dtype and shape); anything else not plain is a TypeError, so no unloadable file is written."""
     if isinstance(obj, torch.Tensor):  # a view into a larger buffer is saved alone, not with the buffer
+        obj = obj.cpu()  # a checkpoint of a run on a GPU loads where there is none
         return obj.clone() if obj.untyped_storage().nbytes() > obj.nbytes else obj
     if obj is None or isinstance(obj, (bool, int, float, str, bytes)):
         return obj

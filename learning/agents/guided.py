@@ -100,6 +100,12 @@ class ValueGuidedPlanner(Planner):
         )
         p.add_argument("--estimator-prior", type=float, default=1.0, help="empirical estimators' pseudo-counts")
         p.add_argument("--estimator-forget", type=float, default=1.0, help="empirical estimators' decay per task")
+        p.add_argument(
+            "--device",
+            default=None,
+            help="evaluate the Q-network value in torch on this device (cuda[:N], or cpu for torch's kernels; "
+            "default: the compiled CPU engine; learning.device)",
+        )
 
     @classmethod
     def search_options(cls, p) -> None:
@@ -148,6 +154,7 @@ class ValueGuidedPlanner(Planner):
             getattr(args, "estimator", "known"),
             getattr(args, "estimator_prior", 1.0),
             getattr(args, "estimator_forget", 1.0),
+            getattr(args, "device", None),
         )
 
     def __init__(
@@ -163,11 +170,14 @@ class ValueGuidedPlanner(Planner):
         estimator="known",
         estimator_prior=1.0,
         estimator_forget=1.0,
+        device=None,
     ):
         """`value`: KIND:PATH, KIND, or a checkpoint PATH of `value_kind` (`learning.values`).
         `reference_planner`: the planner of the reference plan (default: the myopic oracle with the
         `reference` planner and `time_limit`). `estimator`: the next task's distribution in V_AP
-        (`planning.world.estimators`; known: the layout's P)."""
+        (`planning.world.estimators`; known: the layout's P). `device`: where the value is evaluated
+        (`ValueFunction.to_device`; None: its compiled CPU engine); recorded, and the default results name
+        ends -device-<device>, since values computed elsewhere may break a near-tie the other way."""
         d = search_defaults(model)
         if beta is None and "beta" not in d:
             default_beta_warning(model)
@@ -181,6 +191,10 @@ class ValueGuidedPlanner(Planner):
         self.model, self.value_name = model, str(value)
         self.reference = reference_planner if reference_planner is not None else MyopicOracle(reference, time_limit)
         self.value = load_value(self.value_name, model, self.value_kind)
+        if device is not None:
+            if not callable(getattr(self.value, "to_device", None)):
+                raise DomainError("--device", f"the value {self.value_name} is evaluated on the CPU only")
+            self.value.to_device(device)
         self.config = {
             **record(self.value_name, self.value_kind),
             "beta": self.beta,
@@ -192,6 +206,9 @@ class ValueGuidedPlanner(Planner):
         if (self.beta, self.budget, self.depth_cap) != (d.get("beta"), d.get("budget"), d.get("depth_cap")):
             name += f"-beta{self.beta:g}-budget{self.budget}-depth{self.depth_cap}"
         self.run_name = name + reference_suffix(self.reference)
+        if device is not None:
+            self.config["device"] = str(self.value.device)
+            self.run_name += f"-device-{self.value.device.type}"
         self.estimator_spec, self.estimator = None, None
         if estimator not in (None, "known"):
             if not callable(getattr(self.value, "set_distribution", None)):

@@ -28,7 +28,11 @@ against one seed alone, both on the demonstrations (the competent regime), in al
 50 updates so that both see the same machine: `seeds.ratio` is the S seeds' aggregate updates/s over
 the single seed's.
 
-    python -m learning.q.bench --layout two-room [--updates 1000] [--steps 2000] [--seeds 4] [--out FILE]
+With --device cuda it also times one seed's updates with its networks on the GPU against the same trainer
+on the CPU (`device_profile`: wall clock, alternating rounds, the device synchronised after each round).
+
+    python -m learning.q.bench --layout two-room [--updates 1000] [--steps 2000] [--seeds 4] [--device cuda]
+        [--out FILE]
 
 Times are this process's CPU time (torch runs one thread): on a free core that is the
 wall time, on a shared machine it is what the work costs rather than how long it waited
@@ -199,6 +203,50 @@ def seeds_profile(model_dir: str, layout: str, horizon: str, n_seeds: int, updat
     }
 
 
+def device_profile(model_dir: str, layout: str, horizon: str, updates: int, seed: int, device: str) -> dict:
+    """Updates/s of one seed's trainer with its networks on `device` against the same trainer on the CPU, both
+    on the demonstrations (the competent regime), in alternating rounds of 50 updates; wall-clock time, the
+    device synchronised at the end of each round (its kernels run asynchronously)."""
+    from learning.device import check_device
+
+    dev = check_device(device)
+    sync = torch.cuda.synchronize if dev.type == "cuda" else (lambda: None)
+    model = compile_domain(model_dir, layout)
+    with tempfile.TemporaryDirectory() as tmp:
+        cfg = lambda where: Config(
+            **{
+                **domain_defaults(model, horizon),
+                "domain": model_dir,
+                "layout": model.layout,
+                "horizon": horizon,
+                "seed": seed,
+                "steps": 0,
+                "out": f"{tmp}/{where}",
+            }
+        )
+        runs = {"cpu": Trainer(cfg("cpu"), progress=False), "device": Trainer(cfg("device"), False, dev)}
+        for t in runs.values():
+            t.memory = t.demos
+        spent = dict.fromkeys(runs, 0.0)
+        done = 0
+        while done < updates:
+            n = min(50, updates - done)
+            for key, t in runs.items():
+                start = time.perf_counter()
+                for _ in range(n):
+                    t.update()
+                sync()
+                spent[key] += time.perf_counter() - start
+            done += n
+    return {
+        "device": str(dev),
+        "updates": updates,
+        "cpu_updates_per_s": round(updates / spent["cpu"], 2),
+        "device_updates_per_s": round(updates / spent["device"], 2),
+        "ratio": round(spent["cpu"] / spent["device"], 3),
+    }
+
+
 def bench_horizon(model_dir: str, layout: str, horizon: str, steps: int, updates: int, seed: int) -> dict:
     """Acting and update figures of one horizon's trainer."""
     model = compile_domain(model_dir, layout)
@@ -247,6 +295,11 @@ def main() -> None:
         help="also time this many seeds trained in one process against one (default 1: not)",
     )
     p.add_argument("--skip-single", action="store_true", help="time only the seeds trained together (with --seeds)")
+    p.add_argument(
+        "--device",
+        default=None,
+        help="also time one seed's updates with its networks on this device (cuda) against the CPU (wall clock)",
+    )
     args = p.parse_args()
     torch.set_num_threads(1)
     model = compile_domain(args.domain, args.layout)
@@ -267,6 +320,14 @@ def main() -> None:
                 f"{h:12s} {r['seeds']} seeds in one process: {r['aggregate_updates_per_s']:.1f} updates/s in all, one "
                 f"seed alone {r['single_updates_per_s']:.1f}: {r['ratio']:.2f}x (competent regime, {r['updates']} "
                 "updates each)",
+                flush=True,
+            )
+        if args.device is not None:
+            r = device_profile(args.domain, model.layout, h, args.updates, args.seed, args.device)
+            out.setdefault("device", {})[h] = r
+            print(
+                f"{h:12s} on {r['device']}: {r['device_updates_per_s']:.1f} updates/s against "
+                f"{r['cpu_updates_per_s']:.1f} on the CPU: {r['ratio']:.2f}x (competent regime, wall clock)",
                 flush=True,
             )
         if args.skip_single:

@@ -97,6 +97,24 @@ class FactoredQNet(nn.Module):
         self.out = nn.ModuleList(nn.Linear(head_hidden, v) for v in vocab_sizes)
         self._plan_heads()
 
+    AUX = ("lab_of_act", "inst_head", "out_col", "bag", "bag_off", "bag_of", "slot_act", "lab_of_slot")
+    """The index tables of the dense evaluation: plain tensors, not buffers, so that the state_dict is the
+    weights alone; `_apply` moves them with the weights."""
+
+    def _apply(self, fn, recurse=True):
+        """`to`, `cuda`, `cpu` and `half` carry the index tables (`AUX`, the action table) with the weights."""
+        super()._apply(fn, recurse)
+        for name in self.AUX:
+            setattr(self, name, fn(getattr(self, name)))
+        t = self.table
+        for key in ("prefixes", "flat", "scatter", "uses", "pid", "val"):
+            setattr(t, key, [fn(x) for x in getattr(t, key)])
+        return self
+
+    @property
+    def device(self) -> torch.device:
+        return self.lab_of_act.device
+
     def prefix_term(self, d: int) -> torch.Tensor:
         """(P_d, head_hidden): head d's first-layer input from each distinct prefix of earlier components."""
         p = self.table.prefixes[d]
@@ -176,12 +194,13 @@ class FactoredQNet(nn.Module):
     def mask_bits(self, valid) -> np.ndarray:
         """(N, instances * V) bool: `head_masks` of rows with this validity in a compact form, to keep
         beside the validity it depends on (`masks_from_bits` turns it back)."""
-        m = self.slot_act @ torch.as_tensor(valid).to(torch.float32).T  # (slots, N)
-        return (m > 0).T.numpy()
+        m = self.slot_act @ torch.as_tensor(valid).to(self.device, torch.float32).T  # (slots, N)
+        return (m > 0).T.cpu().numpy()
 
     def masks_from_bits(self, bits: np.ndarray) -> tuple:
         """`head_masks` from `mask_bits`: the same tensors, without the product over every action."""
-        m = torch.from_numpy(bits.astype(np.float32)).view(len(bits), self.n_inst, self.v_max).transpose(0, 1)
+        m = torch.from_numpy(bits.astype(np.float32)).to(self.device)
+        m = m.view(len(bits), self.n_inst, self.v_max).transpose(0, 1)
         return m, m.sum(-1, keepdim=True).clamp_(min=1.0)
 
     def label_valid(self, valid: np.ndarray) -> np.ndarray:

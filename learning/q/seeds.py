@@ -212,7 +212,7 @@ def pair_q(net: FactoredQNet, stack: Stack, P: dict, items: list) -> list:
     """Each seed's Q at rows of its `targets._Pairs` (items: (pairs, rows, masks) per seed; rows may be
     empty): `_Pairs.values` of S networks in one batched evaluation; a list of (rows, labels) tensors."""
     S = len(items)
-    inputs = [pairs._inputs(rows) for pairs, rows, _ in items]
+    inputs = [pairs._inputs(rows, torch.device("cpu")) for pairs, rows, _ in items]
     n = [len(rows) for _, rows, _ in items]
     N, Ns = max(1, max(n)), max(1, max(len(x[0]) for x in inputs))
     bits = torch.from_numpy(_pad([x[0].numpy() for x in inputs], Ns))

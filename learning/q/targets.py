@@ -37,12 +37,20 @@ def preparedness(online: nn.Module, target: nn.Module, enc: Encoding, packed: np
     if len(packed) == 0:
         return np.zeros(0)
     obs, valid = _pairs(enc, packed)
-    obs, valid = torch.from_numpy(obs), torch.from_numpy(valid)
+    dev = _device(online)
+    obs, valid = torch.from_numpy(obs).to(dev), torch.from_numpy(valid).to(dev)
     with torch.no_grad():
         _, best = masked_max(online(obs, valid), valid)
         qt = target(obs, valid) if target is not online else online(obs, valid)
-        v = qt.gather(1, best[:, None])[:, 0].reshape(len(packed), len(enc.support)).double()
+        v = qt.gather(1, best[:, None])[:, 0].reshape(len(packed), len(enc.support)).double().cpu()
     return (v @ torch.from_numpy(enc.task_prob[enc.support])).numpy()
+
+
+def _device(net: nn.Module) -> torch.device:
+    """Where a network's weights are (its inputs go there; its answers come back to the CPU); the CPU for a
+    network without parameters."""
+    p = next(net.parameters(), None)
+    return torch.device("cpu") if p is None else p.device
 
 
 class BoundaryCache:
@@ -161,14 +169,15 @@ class _Pairs:
         self.enc, self.bits, self.state_of, self.task_of, self.valid = enc, bits, state_of, task_of, valid
         self.feat = torch.from_numpy(enc.task_feat)
 
-    def _inputs(self, rows):
-        """The distinct states' bits of these rows and the rows' state and task indices into them."""
+    def _inputs(self, rows, device):
+        """The distinct states' bits of these rows and the rows' state and task indices into them, on the
+        network's device."""
         states, s = np.unique(self.state_of[rows], return_inverse=True)
         return (
-            torch.from_numpy(self.bits[states]),
-            self.feat,
-            torch.from_numpy(s.reshape(-1)),
-            torch.from_numpy(self.task_of[rows]),
+            torch.from_numpy(self.bits[states]).to(device),
+            self.feat.to(device),
+            torch.from_numpy(s.reshape(-1)).to(device),
+            torch.from_numpy(self.task_of[rows]).to(device),
         )
 
     @staticmethod
@@ -178,20 +187,23 @@ class _Pairs:
 
     def best(self, net: nn.Module, rows: np.ndarray, masks) -> torch.Tensor:
         """The column (`columns`) of the argmax over the valid actions of net's Q at the given rows (a
-        FactoredQNet's over the labels that have a valid action)."""
-        bits, feat, s, t = self._inputs(rows)
+        FactoredQNet's over the labels that have a valid action), on the CPU."""
+        dev = _device(net)
+        bits, feat, s, t = self._inputs(rows, dev)
         if hasattr(net, "q_labels"):
             q = net.q_labels(net.first_layer_pairs(bits, feat, s, t), masks)
-            return q.masked_fill(torch.from_numpy(~net.label_valid(self.valid[rows])), float("-inf")).max(dim=1)[1]
-        valid = torch.from_numpy(self.valid[rows])
-        return masked_max(net(torch.cat([bits[s], feat[t]], 1), valid), valid)[1]
+            invalid = torch.from_numpy(~net.label_valid(self.valid[rows])).to(dev)
+            return q.masked_fill(invalid, float("-inf")).max(dim=1)[1].cpu()
+        valid = torch.from_numpy(self.valid[rows]).to(dev)
+        return masked_max(net(torch.cat([bits[s], feat[t]], 1), valid), valid)[1].cpu()
 
     def values(self, net: nn.Module, rows: np.ndarray, masks) -> torch.Tensor:
-        """net's Q at the given rows, in its columns (`columns`)."""
-        bits, feat, s, t = self._inputs(rows)
+        """net's Q at the given rows, in its columns (`columns`), on the CPU."""
+        dev = _device(net)
+        bits, feat, s, t = self._inputs(rows, dev)
         if hasattr(net, "q_labels"):
-            return net.q_labels(net.first_layer_pairs(bits, feat, s, t), masks)
-        return net(torch.cat([bits[s], feat[t]], 1), torch.from_numpy(self.valid[rows]))
+            return net.q_labels(net.first_layer_pairs(bits, feat, s, t), masks).cpu()
+        return net(torch.cat([bits[s], feat[t]], 1), torch.from_numpy(self.valid[rows]).to(dev)).cpu()
 
 
 class TargetPlan:
@@ -288,14 +300,16 @@ class TargetPlan:
             self.masks = (
                 online.masks_from_bits(np.concatenate([mb_c, mb_b.reshape(U * k, mb_c.shape[1])])) if factored else None
             )
-            self.columns = _Pairs.columns(target, A)
+            self.columns = _Pairs.columns(target, A).cpu()
         self.n, self.k, self.U, self.inv, self.keys, self.hit, self.miss = n, k, U, inv, keys, hit, miss
         self.comp_tasks = np.asarray(batch["tasks"])[comp]
         self.sl, self.known, self.unknown, self.valid_b, self.mb_b = sl, known, unknown, valid_b, mb_b
 
     def masks_at(self, rows: np.ndarray):
         """The head masks of some rows (None for a network that is not factored)."""
-        return None if self.masks is None else FactoredQNet.select_masks(self.masks, torch.from_numpy(rows))
+        if self.masks is None:
+            return None
+        return FactoredQNet.select_masks(self.masks, torch.from_numpy(rows).to(self.masks[0].device))
 
     def finish(self, best_online: torch.Tensor | None, qt: torch.Tensor) -> torch.Tensor:
         """The targets, from the online net's argmax column at `online_rows` (None where there are none)

@@ -55,7 +55,7 @@ from planning.world.task_stream import PersistentWorld, TaskStream
 
 from .checkpoints import check_domain, network_payload, read_checkpoint, save_checkpoint
 from .inference import LiveGreedy
-from .network import build_network
+from .network import FactoredQNet, build_network
 from .optim import FlatAdam
 from .replay import COMPLETE, CONTINUE, TERMINAL, Replay, mixed_batch
 from .targets import BoundaryCache, SlotCache, td_targets
@@ -347,9 +347,16 @@ def greedy_evaluation(
 
 
 class Trainer:
-    """Algorithm 1 with its state (networks, memories, world, stream, counters) kept for checkpoints."""
+    """Algorithm 1 with its state (networks, memories, world, stream, counters) kept for checkpoints.
 
-    def __init__(self, cfg: Config, progress: bool = True):
+    `device` (`learning.device`): where the online and target networks, their minibatch passes and the
+    optimizer step run (None: the CPU). On another device than the CPU the trainer acts, evaluates and
+    checkpoints through `actor`, a CPU copy of the online network refreshed after every update (one copy
+    of the flat parameter buffer); on the CPU `actor` is the online network itself. The device is how a
+    run is computed, not what it learns: it is not a setting of the run (Config), and a run may resume on
+    another device."""
+
+    def __init__(self, cfg: Config, progress: bool = True, device=None):
         # -- setup: model, encodings, R_goal, seeding --------------------------------------------
         check_config(cfg)
         torch.set_num_threads(1)  # one thread per run: parallel runs share the cores, not a pool
@@ -382,12 +389,14 @@ class Trainer:
         self.identity = identity(model)  # the domain as it was when the run started, in every checkpoint
 
         # -- Algorithm 1, line 1: replay memory, online and target networks ---------------------
-        self.net = build_network(self.enc, cfg.hidden)
-        self.target = build_network(self.enc, cfg.hidden)
+        self.device = torch.device("cpu") if device is None else torch.device(device)
+        self.net = build_network(self.enc, cfg.hidden).to(self.device)
+        self.target = build_network(self.enc, cfg.hidden).to(self.device)
         self.target.load_state_dict(self.net.state_dict())
         self.boundary = BoundaryCache()  # target values of replayed completion states, per sync
         self.opt = FlatAdam(self.net.parameters(), lr=cfg.lr)  # the parameters move into one flat buffer
-        self.greedy = LiveGreedy(self.net)  # acting: the online net's current weights, in numpy
+        self.actor = self.net if self.device.type == "cpu" else self._cpu_copy()
+        self.greedy = LiveGreedy(self.actor)  # acting: the online net's current weights, in numpy
         self.memory = Replay(cfg.buffer_size, self.enc.n_words)
         self.demos, self.demo_returns = demonstrations(
             model, self.enc, cfg, self.r_goal, self.scale, self.terminal_reset, progress
@@ -414,6 +423,22 @@ class Trainer:
         self.task_return, self.task_k = 0.0, 0
         self.metrics = self.out / "metrics.jsonl"
         self.out.mkdir(parents=True, exist_ok=True)
+
+    def _cpu_copy(self) -> FactoredQNet:
+        """A CPU network whose parameters are views into one flat buffer laid out as the optimizer's
+        (`FlatAdam.flat`), so one copy refreshes it (`_refresh_actor`)."""
+        actor = build_network(self.enc, self.cfg.hidden)
+        sizes = [p.numel() for p in actor.parameters()]
+        self.actor_flat = torch.empty(sum(sizes))
+        for p, view in zip(actor.parameters(), self.actor_flat.split(sizes)):
+            p.data = view.view(p.shape)
+        self.actor_flat.copy_(self.opt.flat.detach())
+        return actor.eval()
+
+    def _refresh_actor(self) -> None:
+        """The CPU copy of the online weights, after they changed (an update, a resume)."""
+        if self.actor is not self.net:
+            self.actor_flat.copy_(self.opt.flat.detach())
 
     # ---- the persistent world ------------------------------------------------------------------
     def _last_in_episode(self) -> bool:
@@ -473,12 +498,19 @@ class Trainer:
                 None,
             )
         masks = None if mb is None else self.net.masks_from_bits(mb)
-        q = self.net.q_taken(torch.from_numpy(obs), torch.from_numpy(valid), torch.from_numpy(batch["actions"]), masks)
-        loss = F.smooth_l1_loss(q, y)
+        dev = self.device
+        q = self.net.q_taken(
+            torch.from_numpy(obs).to(dev),
+            torch.from_numpy(valid).to(dev),
+            torch.from_numpy(batch["actions"]).to(dev),
+            masks,
+        )
+        loss = F.smooth_l1_loss(q, y.to(dev))
         self.opt.zero_grad()  # a parameter the loss does not reach steps with a zero gradient, as in the
         loss.backward()  # per-head forward, where every head was in every loss (Adam's moments decay)
         t1 = time.process_time()
         self.opt.step(self.cfg.grad_clip)
+        self._refresh_actor()
         if parts is not None:
             parts["gradient"] = parts.get("gradient", 0.0) + t1 - t
             parts["optimizer"] = parts.get("optimizer", 0.0) + time.process_time() - t1
@@ -561,13 +593,13 @@ class Trainer:
         obs = torch.from_numpy(self.enc.observe(d["states"], d["tasks"]))
         valid = torch.from_numpy(self.enc.valid_for(d["states"], d["tasks"]))
         with torch.inference_mode():
-            q = self.net(obs, valid).gather(1, torch.from_numpy(d["actions"])[:, None])[:, 0].numpy()
+            q = self.actor(obs, valid).gather(1, torch.from_numpy(d["actions"])[:, None])[:, 0].numpy()
         return round(float(np.mean(q - self.demo_returns[ok])), 4)
 
     def _evaluate(self) -> None:
         self.net.eval()
         r = greedy_evaluation(
-            ValueFunction(self.net, self.enc),
+            ValueFunction(self.actor, self.enc),
             self.model,
             10_000 + self.cfg.seed,
             self.cfg.eval_tasks,
@@ -588,7 +620,7 @@ class Trainer:
             save_checkpoint(
                 self.out / "best.pt",
                 network_payload(
-                    self.net, self.enc, {**self.identity, "step": self.step, "eval": r, "config": asdict(self.cfg)}
+                    self.actor, self.enc, {**self.identity, "step": self.step, "eval": r, "config": asdict(self.cfg)}
                 ),
             )
 
@@ -596,7 +628,7 @@ class Trainer:
         """Everything needed to resume, atomically, in last.pt."""
         w = self.world
         payload = network_payload(
-            self.net,
+            self.actor,
             self.enc,
             {
                 **self.identity,
@@ -649,6 +681,7 @@ class Trainer:
         self.boundary.clear()
         self.slots.sync()
         self.opt.load_state_dict(p["opt"])
+        self._refresh_actor()
         self.memory.load_state_dict(p["memory"])
         self.step, self.tasks_done, self.best = p["step"], p["tasks_done"], p["best"]
         self.recent.extend(tuple(x) for x in p["recent"])
@@ -804,13 +837,13 @@ def run_folder(cfg: Config, model) -> Path:
     )
 
 
-def train_run(cfg: Config, fresh: bool = False, progress: bool = True) -> Trainer:
+def train_run(cfg: Config, fresh: bool = False, progress: bool = True, device=None) -> Trainer:
     """Train the run of `cfg` to cfg.steps, resuming it where it stopped: the one way a run starts or goes
     on (learning.dqn, experiments.sweep's items). Returns the trainer, its run ended (`train_runs`)."""
-    return train_runs([cfg], fresh, progress)[0]
+    return train_runs([cfg], fresh, progress, device)[0]
 
 
-def train_runs(cfgs: list, fresh: bool = False, progress: bool = True) -> list:
+def train_runs(cfgs: list, fresh: bool = False, progress: bool = True, device=None) -> list:
     """Train runs that differ only in their seed to cfg.steps, in one process, resuming each where it
     stopped; several are trained together with their updates batched (`learning.q.seeds`), one alone as
     always. Returns the trainers, their runs ended.
@@ -821,14 +854,22 @@ def train_runs(cfgs: list, fresh: bool = False, progress: bool = True) -> list:
     after that checkpoint dropped (they are logged again); a run without one starts over, and what an
     earlier start left (its metrics rows, best.pt, last.pt) is deleted, so metrics.jsonl never holds a
     step twice (a run killed after its first rows but before its first checkpoint read 100, 200, 100, ...).
-    Runs trained together resume together: their checkpoints must be at one step.
+    Runs trained together resume together: their checkpoints must be at one step. `device`: a `--device`
+    (`learning.device`; None: the CPU); several seeds together train on the CPU only.
     """
+    from learning.device import check_device
+
     from .seeds import SeedBatch, check_together
 
+    device = check_device(device)
     for cfg in cfgs:
         check_config(cfg)
     if len(cfgs) > 1:
         check_together(cfgs)
+        if device is not None and device.type != "cpu":
+            raise DomainError(
+                "--device", "several seeds in one process train on the CPU only; train them one at a time"
+            )
     model = compile_domain(cfgs[0].domain, cfgs[0].layout)
     outs = [run_folder(cfg, model) for cfg in cfgs]
     if len(set(outs)) < len(outs):
@@ -838,7 +879,7 @@ def train_runs(cfgs: list, fresh: bool = False, progress: bool = True) -> list:
             cli.check_writable(out, folder=True)
             out.mkdir(parents=True, exist_ok=True)  # the lock lives inside the folder: made before it is taken
             locks.enter_context(OutputLock(out, "training run"))
-        trainers = [Trainer(cfg, progress=progress) for cfg in cfgs]
+        trainers = [Trainer(cfg, progress=progress, device=device) for cfg in cfgs]
         batch = SeedBatch(trainers) if len(trainers) > 1 else None
         for trainer in trainers:
             _start(trainer, fresh)

@@ -15,6 +15,9 @@ from .checkpoints import check_domain, checkpoint_config, read_checkpoint
 from .inference import BatchedQ, NativeQ, NumpyQ, _qnet_lib
 from .network import FactoredQNet
 
+CHUNK = 8192
+"""Rows per torch evaluation on a device (`ValueFunction.to_device`)."""
+
 
 class ValueFunction:
     """A trained Q-network bound to a layout's encoding: greedy actions, q_max and v_ap, batched.
@@ -31,6 +34,33 @@ class ValueFunction:
         self.fast = NumpyQ(net)
         self.batched = BatchedQ(net, enc)
         self._native, self.memo, self._distribution = None, True, None
+        self.device, self.on_device = None, None  # `to_device`: torch on a device instead of numpy and C
+
+    def to_device(self, device) -> "ValueFunction":
+        """q_max and V_AP evaluated by the network in torch on `device` (`learning.device`: cuda, or cpu for
+        torch's own CPU kernels) instead of the numpy and compiled engines, in chunks of `CHUNK` rows; the
+        compiled search then calls `q_max` (no `native_q_max`). The same values to float32 rounding, so a
+        near-tie between two terminals may break the other way. Returns self."""
+        import copy
+
+        from learning.device import check_device
+
+        self.device = check_device(device)
+        self.on_device = copy.deepcopy(self.net).to(self.device).eval()
+        return self
+
+    def _max_q(self, packed: np.ndarray, tasks: np.ndarray) -> np.ndarray:
+        """max_a Q(s, τ, a) of (packed state, task) rows, in torch on `device`."""
+        import torch
+
+        out = np.empty(len(packed))
+        for lo in range(0, len(packed), CHUNK):
+            p, t = packed[lo : lo + CHUNK], tasks[lo : lo + CHUNK]
+            obs = torch.from_numpy(self.enc.observe(p, t)).to(self.device)
+            valid = torch.from_numpy(self.enc.valid_for(p, t)).to(self.device)
+            with torch.inference_mode():
+                out[lo : lo + len(p)] = self.on_device(obs, valid).max(1).values.double().cpu().numpy()
+        return out
 
     @classmethod
     def load(cls, path, model) -> "ValueFunction":
@@ -46,7 +76,10 @@ class ValueFunction:
 
     @property
     def native(self) -> "NativeQ | None":
-        """The compiled engine, or None where there is no C compiler (or QNET_NATIVE=0)."""
+        """The compiled engine, or None where there is no C compiler (or QNET_NATIVE=0) or the value runs on a
+        device (`to_device`)."""
+        if self.device is not None:
+            return None
         if self._native is None:
             lib = _qnet_lib()
             self._native = NativeQ(self.batched, lib, self.memo) if lib is not None else False
@@ -90,10 +123,20 @@ class ValueFunction:
 
     def q_max(self, states, task) -> np.ndarray:
         """max_a Q(s, τ, a) per state: the value of a state for the current task."""
+        if self.device is not None:
+            packed = self.enc.pack(states)
+            return self._max_q(packed, np.full(len(packed), _task_index(task), dtype=np.int64))
         return self.batched.q_max(states, _task_index(task))
 
     def v_ap(self, states) -> np.ndarray:
         """V_AP(s) = Σ_τ P(τ) max_a Q(s, τ, a) per state: the preparedness value (Eq. 3.8)."""
+        if self.device is not None:
+            packed, support = self.enc.pack(states), self.enc.support
+            n, k = len(packed), len(support)
+            rows = np.repeat(np.arange(n), k)
+            q = self._max_q(packed[rows], np.tile(support, n).astype(np.int64)).reshape(n, k)
+            prob = self.enc.task_prob[support] if self._distribution is None else self._distribution
+            return q @ prob
         return self.batched.v_ap(states)
 
 
