@@ -156,23 +156,28 @@ def matmul_profile(trainer: Trainer, batches: list, chunk: int = 50) -> dict:
     }
 
 
+def bench_config(model_dir: str, model, horizon: str, seed: int, out: str) -> Config:
+    """The trainer settings a benchmark times: the layout's (Table A.2, then domain.toml), no steps of its own."""
+    return Config(
+        **{
+            **domain_defaults(model, horizon),
+            "domain": model_dir,
+            "layout": model.layout,
+            "horizon": horizon,
+            "seed": seed,
+            "steps": 0,
+            "out": out,
+        }
+    )
+
+
 def seeds_profile(model_dir: str, layout: str, horizon: str, n_seeds: int, updates: int, seed: int) -> dict:
     """Aggregate updates/s of n_seeds seeds in one `SeedBatch` against one seed alone (module docstring)."""
     from .seeds import SeedBatch
 
     model = compile_domain(model_dir, layout)
     with tempfile.TemporaryDirectory() as tmp:
-        cfg = lambda s: Config(
-            **{
-                **domain_defaults(model, horizon),
-                "domain": model_dir,
-                "layout": model.layout,
-                "horizon": horizon,
-                "seed": s,
-                "steps": 0,
-                "out": f"{tmp}/{s}",
-            }
-        )
+        cfg = lambda s: bench_config(model_dir, model, horizon, s, f"{tmp}/{s}")
         single = Trainer(cfg(seed), progress=False)
         trainers = [Trainer(cfg(seed + k), progress=False) for k in range(n_seeds)]
         batch = SeedBatch(trainers)
@@ -213,17 +218,7 @@ def device_profile(model_dir: str, layout: str, horizon: str, updates: int, seed
     sync = torch.cuda.synchronize if dev.type == "cuda" else (lambda: None)
     model = compile_domain(model_dir, layout)
     with tempfile.TemporaryDirectory() as tmp:
-        cfg = lambda where: Config(
-            **{
-                **domain_defaults(model, horizon),
-                "domain": model_dir,
-                "layout": model.layout,
-                "horizon": horizon,
-                "seed": seed,
-                "steps": 0,
-                "out": f"{tmp}/{where}",
-            }
-        )
+        cfg = lambda where: bench_config(model_dir, model, horizon, seed, f"{tmp}/{where}")
         runs = {"cpu": Trainer(cfg("cpu"), progress=False), "device": Trainer(cfg("device"), False, dev)}
         for t in runs.values():
             t.memory = t.demos
@@ -251,17 +246,7 @@ def bench_horizon(model_dir: str, layout: str, horizon: str, steps: int, updates
     """Acting and update figures of one horizon's trainer."""
     model = compile_domain(model_dir, layout)
     with tempfile.TemporaryDirectory() as tmp:
-        cfg = Config(
-            **{
-                **domain_defaults(model, horizon),
-                "domain": model_dir,
-                "layout": model.layout,
-                "horizon": horizon,
-                "seed": seed,
-                "steps": 0,
-                "out": tmp,
-            }
-        )
+        cfg = bench_config(model_dir, model, horizon, seed, tmp)
         trainer = Trainer(cfg, progress=False)
         torch.manual_seed(seed)
         env = acting_rate(trainer, steps, eps=0.5)
