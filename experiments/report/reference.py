@@ -526,10 +526,13 @@ def native_candidates() -> list[str]:
         if a is None:
             continue
         seconds = [r["seconds"] for r in d["per_task"] if "seconds" in r]
+        cfg = d.get("config") or {}
+        generator = (cfg.get("candidate_generator") or {}).get("kind", "clause-library")
         body.append(
             [
                 f"`{path.name}`",
                 d["layout"],
+                f"{generator}, {cfg.get('joint_heuristic', '—')}",
                 a["tasks"],
                 a["candidates"],
                 num(a["mae"], 1),
@@ -550,6 +553,7 @@ def native_candidates() -> list[str]:
             [
                 "results file",
                 "layout",
+                "candidates, planned with",
                 "tasks",
                 "candidates",
                 "MAE",
@@ -571,7 +575,9 @@ def native_candidates() -> list[str]:
             "units). *Exact C_AP leaves the myopic plan*, *exact gain*: the same rule with exact labels on the "
             "same candidates: how often it would leave the myopic plan, and its mean saving in cost + C_AP over the "
             "myopic plan per scored task (PDDL units). s/task counts the candidate planning (once per state and "
-            "task; later runs read the shared candidate cache) and the exact labels.",
+            "task; later runs read the shared candidate cache) and the exact labels. *Planned with*: the candidate "
+            "generator and the admissible heuristic of the augmented candidates' searches (`--joint-heuristic`; "
+            "the same costs, another optimal plan where several tie).",
         ]
     )
 
