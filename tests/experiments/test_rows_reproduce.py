@@ -62,3 +62,21 @@ def test_sequence_0_reproduces(name, tmp_path):
     assert len(rerun) == len(committed) == 50
     for a, b in zip(committed, rerun):
         assert {f: a.get(f) for f in FIELDS} == {f: b.get(f) for f in FIELDS}, (name, a["index"])
+
+
+@pytest.mark.slow
+def test_the_known_estimator_reproduces_the_guided_sequence(tmp_path):
+    """rl-guided with `--estimator known` named (issue 38: the thesis's P through the estimator protocol) plays
+    the committed two-room guided sequence 0 bit for bit."""
+    name = "rl-guided-anticipatory-two-room-seed0.json"
+    out = tmp_path / name
+    command = command_of(name, out)
+    run = subprocess.run([*command, "--estimator", "known"], cwd=ROOT, capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr[-2000:]
+    committed = [r for r in json.loads((ROOT / "results" / name).read_text())["per_task"] if r["sequence"] == 0]
+    rerun = json.loads(out.read_text())
+    assert "estimator" not in rerun["config"]
+    rows = [r for r in rerun["per_task"] if r["sequence"] == 0]
+    assert len(rows) == len(committed) == 50
+    for a, b in zip(committed, rows):
+        assert {f: a.get(f) for f in FIELDS} == {f: b.get(f) for f in FIELDS}, a["index"]
