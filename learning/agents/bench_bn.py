@@ -43,6 +43,7 @@ from planning import cli
 from planning.atomic import write_json
 from planning.domain.batched import BatchedModel
 from planning.domain.compiler import compile_domain
+from planning.errors import DomainError
 from planning.parallel import results_provenance
 from planning.search.bellman_novelty import DEPTH_CAP, PREFETCH, bellman_novelty_search
 from planning.search.bellman_novelty_reference import bellman_novelty_search_reference
@@ -231,6 +232,12 @@ def main() -> None:
         action="store_false",
         help="the compiled value keeps no values from one search to the next (else both are timed)",
     )
+    p.add_argument(
+        "--device",
+        default=None,
+        help="evaluate a Q-network value in torch on this device (cuda; learning.device) instead of the compiled "
+        "CPU engine: run once with and once without to compare",
+    )
     p.add_argument("--quiet", action="store_true")
     args = p.parse_args()
     from planning.parallel import one_thread
@@ -241,6 +248,10 @@ def main() -> None:
     value = load_value(args.checkpoint or args.value, model, "q-network")
     if callable(getattr(value, "set_memo", None)):
         value.set_memo(args.memo)
+    if args.device is not None:
+        if not callable(getattr(value, "to_device", None)):
+            raise DomainError("--device", f"the value {args.checkpoint or args.value} is evaluated on the CPU only")
+        value.to_device(args.device)
     if args.stream:
         tasks, reset = draw_tasks(model, args.seed, args.tasks), args.seed
     else:
@@ -295,6 +306,7 @@ def main() -> None:
             "memo": args.memo,
             "sequence": None if args.stream else args.sequence,
             "tasks": args.tasks,
+            **({} if args.device is None else {"device": args.device}),
         }
         write_json(args.out, {**config, **r, "provenance": results_provenance(config)})
         print(f"wrote {args.out}")
