@@ -178,6 +178,17 @@ def load_run(run: Run, ctx: Context) -> Loaded:
             if pid
             else "interrupted: a .partial.json is there (reproduce resumes it)",
         )
+    parts = sorted(Path(f"{out}.parts").glob("seq-*.json"))
+    if parts and not out.is_file():
+        pid = writer_pid(run)
+        done = ", ".join(p.stem.removeprefix("seq-") for p in parts)
+        return Loaded(
+            run,
+            "in progress",
+            note=f"being written by process {pid}"
+            if pid
+            else f"interrupted: sequences {done} are in `{run.out}.parts/` (its command with --workers resumes them)",
+        )
     if not out.is_file():
         return Loaded(run, "not run", note=f"`{run.out}` does not exist")
     data = read_json(out)

@@ -149,6 +149,11 @@ def test_a_row_flags_or_refuses_what_it_does_not_expect(tiny):
     assert other.status == "not used" and "seed 2" in other.note
     Path(f"{run.out}.partial.json").write_text("{}")
     assert load_run(run, ctx).status == "in progress"
+    parted = Run("random", "two-room", ("--seed", "3"), str(Path(run.out).with_name("parted.json")))
+    Path(f"{parted.out}.parts").mkdir()
+    Path(f"{parted.out}.parts/seq-04.json").write_text("{}")
+    loaded = load_run(parted, ctx)
+    assert loaded.status == "in progress" and "sequences 04 are in" in loaded.note
     assert load_run(Run("no-such-agent", "two-room", (), "x.json"), ctx).status == "agent not registered"
     assert (
         load_run(Run("rl-greedy", "two-room", ("--checkpoint", "none.pt"), "x.json", 0, "none.pt"), ctx).status
