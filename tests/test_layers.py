@@ -98,7 +98,7 @@ def test_the_planning_check_sees_a_violation(tmp_path):
 # Inside learning/, bottom to top: the shared basics, the Gymnasium environment, the Q-learner, the GNN,
 # the values (the registry, the exact value, the ranking), the agents, then the commands.
 LEARNING_LEVELS = [
-    {"__init__", "encoding", "reward", "plain"},
+    {"__init__", "encoding", "reward", "plain", "device"},
     {"gym_env"},
     {"q"},
     {"gnn"},
