@@ -82,7 +82,7 @@ def _iid_run(layout: str, stream: str, s) -> Run:
     return Run("rl-guided", layout, options, out, s, ckpt, rl_train("anticipatory", layout, s))
 
 
-def rows(ctx, layout: str, stream: str, kind: str) -> list[Row]:
+def rows(layout: str, stream: str, kind: str) -> list[Row]:
     """The section's rows for one layout and stream (see the module)."""
     from experiments.report.specs import RL_SEEDS
 
@@ -136,13 +136,13 @@ def rows(ctx, layout: str, stream: str, kind: str) -> list[Row]:
 
 def load_specs(ctx, layouts) -> list[list[Row]]:
     """The rows of every layout and stream (what `experiments.reproduce --streams` plays)."""
-    return [rows(ctx, layout, s, kind) for layout in layouts for s, kind in stream_names(ctx.model(layout))]
+    return [rows(layout, s, kind) for layout in layouts for s, kind in stream_names(ctx.model(layout))]
 
 
 def load(ctx, layouts) -> dict:
     """{(layout, stream, kind): {row key: RowResult}} for every layout and stream."""
     return {
-        (layout, stream, kind): load_rows(rows(ctx, layout, stream, kind), ctx)
+        (layout, stream, kind): load_rows(rows(layout, stream, kind), ctx)
         for layout in layouts
         for stream, kind in stream_names(ctx.model(layout))
     }

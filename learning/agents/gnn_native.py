@@ -182,7 +182,7 @@ class CandidateCache:
         without its newline is left for later (a run in parallel may be writing it); at load, one that does
         not parse is a write cut short by an interruption: skipped, and planned again."""
         end = data.rfind(b"\n") + 1
-        lines = data[:end].decode().split("\n")[:-1]
+        lines = data[:end].split(b"\n")[:-1]
         tail = data[end:]
         for line in lines:
             self._entry(line, self.line)
@@ -190,12 +190,13 @@ class CandidateCache:
         self.offset += end
         if at_load and tail.strip():
             try:
-                self._entry(tail.decode(), self.line)
+                self._entry(tail, self.line)
             except DomainError:
                 pass
             self.offset += len(tail)
 
-    def _entry(self, line: str, n: int) -> None:
+    def _entry(self, line: bytes, n: int) -> None:
+        """Line n of the file (raw bytes: a corrupt one is a one-line error, like any bad entry) into the table."""
         if not line.strip():
             return
         try:

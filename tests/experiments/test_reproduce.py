@@ -350,7 +350,7 @@ def test_stream_rows_name_the_files_the_trainer_exports_and_the_evaluation_write
         ("cook-then-clean", "markov"),
         ("lunch-rush", "drift"),
     ]
-    rows = {r.key: r for r in streams.rows(ctx, "three-room", "lunch-rush", "drift")}
+    rows = {r.key: r for r in streams.rows("three-room", "lunch-rush", "drift")}
     assert list(rows) == [
         "myopic-oracle",
         "clairvoyant-2",
@@ -374,7 +374,7 @@ def test_stream_rows_name_the_files_the_trainer_exports_and_the_evaluation_write
     assert run.command.endswith(
         f"--estimator empirical --estimator-forget 0.95 --stream lunch-rush --out results/rl-guided-{rl_name(cfg)}.json"
     )
-    iid = {r.key: r for r in streams.rows(ctx, "two-room", "iid", "iid")}
+    iid = {r.key: r for r in streams.rows("two-room", "iid", "iid")}
     assert [r.out for r in iid["iid-agent"].runs] == [
         f"results/rl-guided-anticipatory-two-room-seed{s}.json" for s in (0, 4, 8, 16)
     ]  # Table 5.2's own files

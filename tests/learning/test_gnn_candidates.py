@@ -315,3 +315,14 @@ def test_every_joint_heuristic_plans_the_same_candidate_costs_and_is_recorded(tm
     assert all(v == ("(at apple b)", [2, 2, 4]) for v in seen.values()), seen
     with pytest.raises(DomainError, match="--joint-heuristic"):
         GNNNativePlanner(model, "exact C_AP", estimate=exact, joint_heuristic="blind")
+
+
+def test_a_corrupt_candidate_cache_line_is_one_line_error(tmp_path, minimal):
+    from learning.agents.gnn_native import CandidateCache
+
+    path, settings = tmp_path / "c.jsonl", {"max_clauses": 10}
+    CandidateCache(minimal, path, settings)
+    with open(path, "ab") as f:
+        f.write(b"\xff\xfe not json\n")
+    with pytest.raises(DomainError, match="line 2 is not a candidate entry"):
+        CandidateCache(minimal, path, settings)
