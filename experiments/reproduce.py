@@ -36,8 +36,8 @@ from pathlib import Path
 from tqdm import tqdm
 
 from experiments.report import domain, thesis
-from experiments.report.data import ALL, Context, curve, load_run, run_protocol, writer_pid
-from experiments.report.specs import LAYOUTS, discount_runs
+from experiments.report.data import ALL, Context, load_run, run_protocol, writer_pid
+from experiments.report.specs import DISCOUNT_TRAIN, LAYOUTS, discount_runs
 from experiments.report.specs import rows as row_specs
 from planning import cli
 from planning.atomic import read_json, write_json, write_text
@@ -100,18 +100,16 @@ def stamp(run, via: str) -> None:
 
 
 def train_discount_sweep(progress: bool = True) -> None:
-    """Train the Table A.5 runs that have not reached their last step (learning.dqn resumes its last.pt)."""
-    from learning.q.training import Config
-
-    for gamma, metrics, command in discount_runs():
-        rows = curve(metrics)
-        if rows and rows[-1]["step"] >= Config.steps:
-            continue
-        print(f"γ = {gamma:g}: {command}", file=sys.stderr)
-        args = shlex.split(command)[1:]
-        if not progress:
-            args.append("--no-progress")
-        subprocess.run([sys.executable, *args], check=True)
+    """Table A.5's runs: train, export and greedily evaluate them (`specs.DISCOUNT_TRAIN`: every run resumes
+    from its last.pt, a finished one is skipped), then the guided evaluation of each run that lacks it."""
+    args = shlex.split(DISCOUNT_TRAIN)[1:] + ([] if progress else ["--no-progress"])
+    print(DISCOUNT_TRAIN, file=sys.stderr)
+    subprocess.run([sys.executable, *args], check=True)
+    for run in discount_runs():
+        if not Path(run.guided).is_file():
+            print(run.evaluate, file=sys.stderr)
+            args = shlex.split(run.evaluate)[1:] + ([] if progress else ["--no-progress"])
+            subprocess.run([sys.executable, *args], check=True)
 
 
 # ---- the command --------------------------------------------------------------------------

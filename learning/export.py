@@ -19,7 +19,8 @@
 - The key figures of a Q-learning run are what Appendix A.2 reports of it, read
   from its metrics.jsonl: at 50k, 100k, 250k and 500k steps (or the nearest logged
   step before), the success rate over the last 100 training tasks, the selected Q,
-  the TD target and the share of refill-water actions in the last log window; the
+  the TD target and the share of the domain's preparation action ([preparation] action:
+  refill-water in the restaurant, `refill_action`) in the last log window; the
   greedy evaluations (and, for a myopic run, demo_q_bias: Q above the myopic
   oracle's return on the demonstrations, the divergence alarm); the largest selected
   Q of the run and where, and the largest refill-water share, per log window and cumulative
@@ -69,6 +70,7 @@ from planning.atomic import OutputLock, sha256, write_json
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 from planning.parallel import results_provenance
+from planning.world.preparation import Preparation
 
 MILESTONES = (50_000, 100_000, 250_000, 500_000)
 PRECISION = "float16"
@@ -128,16 +130,18 @@ def split_metrics(path: Path) -> tuple[list[dict], list[dict]]:
     return [r for r in rows if "eval" not in r], [r["eval"] for r in rows if "eval" in r]
 
 
-def key_figures(logs: list[dict], evals: list[dict], refill: str = "refill-water") -> dict:
-    """What Appendix A.2 reports of a run (see the module's docstring)."""
+def key_figures(logs: list[dict], evals: list[dict], refill: str | None = None) -> dict:
+    """What Appendix A.2 reports of a run (see the module's docstring); `refill`: the action that draws on a
+    preparation (the domain's [preparation] action, `planning.world.preparation`; None: no share is reported)."""
     if not logs:  # a run shorter than its log_every: nothing logged yet
         return {"steps": 0, "train_hours": 0.0}
     last = logs[-1]["step"]
-    cumulative, done, prev = {}, 0.0, 0  # refill-water actions since step 0, over the steps
+    window = lambda r: r.get("action_share", {}).get(refill) if refill else None
+    cumulative, done, prev = {}, 0.0, 0  # `refill` actions since step 0, over the steps
     for r in logs:
-        done += (r.get("action_share", {}).get(refill) or 0.0) * (r["step"] - prev)
+        done += (window(r) or 0.0) * (r["step"] - prev)
         prev = r["step"]
-        cumulative[r["step"]] = round(done / r["step"], 5) if r["step"] else 0.0
+        cumulative[r["step"]] = (round(done / r["step"], 5) if r["step"] else 0.0) if refill else None
     at = {}
     for m in MILESTONES:
         before = [r for r in logs if r["step"] <= m]
@@ -150,7 +154,7 @@ def key_figures(logs: list[dict], evals: list[dict], refill: str = "refill-water
             "success_last_100": row["success_rate"],
             "selected_q": round(row["selected_q"], 3),
             "td_target": round(row["td_target"], 3),
-            "refill_share": row.get("action_share", {}).get(refill),
+            "refill_share": window(row),
             "refill_share_cumulative": cumulative[row["step"]],
             **({"greedy": _eval(ev[-1])} if ev else {}),
         }
@@ -161,16 +165,16 @@ def key_figures(logs: list[dict], evals: list[dict], refill: str = "refill-water
         if r.get("steps_per_s"):
             seconds += (r["step"] - prev) / r["steps_per_s"]
         prev = r["step"]
-    refills = [(r.get("action_share", {}).get(refill) or 0.0, r["step"]) for r in logs]
-    top = max(refills)
-    top_cumulative = max((share, step) for step, share in cumulative.items())
+    top = max((window(r) or 0.0, r["step"]) for r in logs)
+    top_cumulative = max(((share or 0.0), step) for step, share in cumulative.items())
     return {
         "steps": last,
+        "refill_action": refill,
         "at": at,
         "best_greedy": _eval(best) if best else None,
         "peak_selected_q": {"step": peak["step"], "selected_q": round(peak["selected_q"], 3)},
-        "peak_refill_share": {"step": top[1], "share": top[0]},
-        "peak_refill_share_cumulative": {"step": top_cumulative[1], "share": top_cumulative[0]},
+        "peak_refill_share": {"step": top[1], "share": top[0]} if refill else None,
+        "peak_refill_share_cumulative": {"step": top_cumulative[1], "share": top_cumulative[0]} if refill else None,
         "train_hours": round(seconds / 3600, 3),
         "steps_per_s_median": _median([r["steps_per_s"] for r in logs if r.get("steps_per_s")]),
         "curve": [
@@ -467,6 +471,8 @@ def export(
         logs, evals = split_metrics(run / "metrics.jsonl")
         small, loss = faithful_compact(payload, sha256(best))
         cfg = payload.get("config", {})
+        layout = cfg.get("layout") or payload.get("signature", {}).get("layout")
+        prep = Preparation.of(compile_domain(cfg.get("domain", Config.domain), layout))
         recorded = {k: payload[k] for k in DOMAIN_KEYS if k in payload} or {
             "domain": payload.get("signature", {}).get("domain")
         }  # a run from before domains were recorded
@@ -480,7 +486,7 @@ def export(
             **{k: cfg.get(k) for k in ("layout", "horizon", "seed", "steps", "gamma")},
             **{k: cfg.get(k, was) for k, was in LEGACY.items()},
             "config": cfg,
-            **key_figures(logs, evals),
+            **key_figures(logs, evals, prep.action if prep else None),
         }
         write = may_write(out, small, force, read_checkpoint, "checkpoint", "--out")
         write_figs = figures is not None and (

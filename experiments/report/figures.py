@@ -244,14 +244,19 @@ def training_curves(logs: dict, path) -> Path | None:
     return _save(fig, path)
 
 
-def refill_share(logs: dict, path, action: str = "refill-water") -> Path | None:
-    """Figure A.2. logs[label] = metrics rows of one run: the share of `action` among all actions since
-    step 0 (cumulative, as the authors' code plots it; each row logs its window's share)."""
+def refill_share(logs: dict, path, action: str) -> Path | None:
+    """Figure A.2. logs[label] = metrics rows of one run: the share of `action` (the domain's [preparation]
+    action) among all actions since step 0 (cumulative, as the authors' code plots it; each log row has its
+    window's share, each row of an exported curve the cumulative share); None where the domain has no such action."""
+    if action is None:
+        return None
     curves = {}
     for label, rows in logs.items():
         pts, done, prev = [], 0.0, 0
         for r in rows:
-            if isinstance(r.get("action_share"), dict) and r.get("step"):
+            if r.get("refill_share_cumulative") is not None and r.get("step"):
+                pts.append((r["step"], r["refill_share_cumulative"]))
+            elif isinstance(r.get("action_share"), dict) and r.get("step"):
                 done += r["action_share"].get(action, 0.0) * (r["step"] - prev)
                 prev = r["step"]
                 pts.append((r["step"], done / r["step"]))

@@ -456,16 +456,59 @@ def training_logs(layout: str, horizon: str) -> list[tuple[int, str]]:
     return out
 
 
-def discount_runs() -> list[tuple[float, str, str]]:
-    """(γ, metrics.jsonl, training command) of the Table A.5 sweep: three-room anticipatory, seed 0."""
-    out = []
-    for g in GAMMAS:
-        run = rl_run_dir("anticipatory", "three-room", 0, g)
-        out.append(
-            (
-                g,
-                f"{run}/metrics.jsonl",
-                f"python -m learning.dqn --layout three-room --horizon anticipatory --seed 0 --gamma {g:g} --out {run}",
-            )
+@dataclass(frozen=True)
+class DiscountRun:
+    """One run of Table A.5's sweep: three-room anticipatory at discount `gamma`, one seed, trained with the
+    seeds batched (`learning.q.seeds`), exported, evaluated greedily (`experiments.sweep --deploy`) and guided."""
+
+    gamma: float
+    seed: int
+
+    @property
+    def name(self) -> str:
+        return f"anticipatory-three-room-seed{self.seed}-gamma{self.gamma:g}"
+
+    @property
+    def log(self) -> str:
+        return f"runs/dqn/restaurant-{self.name}/metrics.jsonl"
+
+    @property
+    def training(self) -> str:
+        return f"results/training-{self.name}.json"
+
+    @property
+    def checkpoint(self) -> str:
+        return f"checkpoints/rl-{self.name}.pt"
+
+    @property
+    def greedy(self) -> str:
+        return f"results/rl-greedy-{self.name}.json"
+
+    @property
+    def guided(self) -> str:
+        return f"results/rl-guided-{self.name}.json"
+
+    @property
+    def evaluate(self) -> str:
+        """The guided evaluation (the layout's β, budget and depth cap, as Table 5.2's)."""
+        return (
+            f"python -m experiments.evaluate --agent rl-guided --layout three-room --checkpoint {self.checkpoint} "
+            f"--out {self.guided}"
         )
-    return out
+
+
+SWEEP_SEEDS = (0, 4)
+"""Table A.5's seeds per discount (the thesis's table is seed 0 alone)."""
+
+DISCOUNT_TRAIN = (
+    "python -m experiments.sweep --layout three-room --horizon anticipatory "
+    f"--seed {','.join(map(str, SWEEP_SEEDS))} --gamma {','.join(f'{g:g}' for g in GAMMAS)} "
+    "--seeds-together --runs runs/dqn --deploy"
+)
+"""Trains, exports and greedily evaluates every run of the sweep (each discount's seeds in one process;
+a rerun resumes every run from its last.pt and skips the finished ones)."""
+
+
+def discount_runs() -> list[DiscountRun]:
+    """Table A.5's runs: every discount of GAMMAS (0.97, the thesis's, retrained alike) × SWEEP_SEEDS."""
+    return [DiscountRun(g, s) for g in GAMMAS for s in SWEEP_SEEDS]

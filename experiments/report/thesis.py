@@ -20,6 +20,7 @@ from experiments.report import provenance, reference, streams, tables
 from experiments.report.data import Context, curve, improvement, load_rows, sha256
 from experiments.report.specs import AGENTS, THESIS, THESIS_MINIMAL, discount_runs, rl_run_dir, training_logs
 from experiments.report.specs import rows as row_specs
+from planning.world.preparation import Preparation
 
 NOTES = Path("docs/results-notes.md")
 """Hand-kept notes with no generator yet: included verbatim as the report's appendix."""
@@ -65,7 +66,9 @@ def from_logs(draw, path: Path, logs: list[str]) -> tuple[Path | None, int]:
     return draw(path), 0
 
 
-def figures(results: dict, folder: Path) -> tuple[dict[str, tuple[Path | None, str]], dict[str, int]]:
+def figures(
+    results: dict, folder: Path, refill: str | None
+) -> tuple[dict[str, tuple[Path | None, str]], dict[str, int]]:
     """{figure: (PNG or None, what it needs when None)}, every figure of the report, and {figure: training logs
     missing here} for those kept as committed (`from_logs`)."""
     f53 = {
@@ -131,13 +134,17 @@ def figures(results: dict, folder: Path) -> tuple[dict[str, tuple[Path | None, s
     if "three-room" in results:
         seed0 = {h: f"{rl_run_dir(h, 'three-room', 0)}/metrics.jsonl" for h in ("anticipatory", "myopic")}
         a2_logs = [p for h, p in seed0.items() if Path(f"results/training-{h}-three-room-seed0.json").is_file()]
-        a2 = {f"anticipatory, γ = {g:g}": curve(p) for g, p, _ in discount_runs()}
+        a2 = {
+            f"anticipatory, γ = {r.gamma:g}": curve(r.training if Path(r.training).is_file() else r.log)
+            for r in discount_runs()
+            if r.seed == 0
+        }
         a2["anticipatory, γ = 0.97 (main run)"] = curve(seed0["anticipatory"])
         a2["myopic"] = curve(seed0["myopic"])
     minimal = reference.read("results/minimal-example.json") or {}
     a1 = figs.training_curves(logs, folder / "fig-A-1-training.png")
     a2_png, a2_missing = from_logs(
-        lambda path: figs.refill_share(a2, path), folder / "fig-A-2-refill-water.png", a2_logs
+        lambda path: figs.refill_share(a2, path, refill), folder / "fig-A-2-refill-water.png", a2_logs
     )
     kept = {"A.2": a2_missing} if a2_missing else {}
     need_logs = "training logs `runs/dqn/restaurant-<layout>-<horizon>-seed<N>/metrics.jsonl` (`python -m learning.dqn ...`; runs/ is not committed)"
@@ -195,7 +202,8 @@ def report(layouts, ctx: Context, out: Path, command: str) -> str:
     started = time.perf_counter()
     results = {layout: load_rows(row_specs(layout), ctx) for layout in layouts}
     folder = out.parent / "figures"
-    drawn, kept = figures(results, folder)
+    prep = Preparation.of(ctx.model("three-room"))
+    drawn, kept = figures(results, folder, prep.action if prep else None)
     for old in folder.glob("fig-*.png"):  # a figure that can no longer be drawn is not left behind
         if old not in {path for path, _ in drawn.values()}:
             old.unlink()
@@ -268,7 +276,7 @@ def report(layouts, ctx: Context, out: Path, command: str) -> str:
                     f"{kept[name]} of them (`runs/` is not committed), so it was not redrawn.",
                     "",
                 ]
-    lines += ["## Table A.5: the discount sweep (optional)", "", *tables.discount_table(), ""]
+    lines += ["## Table A.5: the discount sweep (optional)", "", *tables.discount_table(ctx.model("three-room")), ""]
     lines += ["## Task streams: unknown, drifting and correlated (beyond the thesis)", ""]
     lines += streams.section(ctx, layouts, folder)
     ckpts = [

@@ -15,6 +15,7 @@ unknown object, a task type without a schema, probabilities that do not sum to
   LM-cut, so it needs no rooms), a type of probability 0 that no stream draws;
 - task streams ([streams.<name>], `planning.world.streams`): a known kind, types that [tasks]
   draws, every transition row and phase mix summing to 1, phases in order;
+- [preparation] (`planning.world.preparation`): its actions are the domain's, its types the layout's;
 - resets: every world a reset can draw (each combination of the [[reset]] choices);
 - rooms: every listed object exists, and every location (an object of the
   family the listed ones belong to) is in exactly one room, else a warning: the
@@ -58,6 +59,7 @@ KNOWN_TABLES = (
     "training",
     "search",
     "gnn",
+    "preparation",
 )
 """The top-level tables of domain.toml that some tool reads."""
 LAYOUT_KEYS = ("problem", "rooms", "tasks", "reset", "coordinates")
@@ -489,6 +491,7 @@ class Checker:
         if first is not False:
             self._check_unused_types(model, first)
         self._check_streams(model)
+        self._check_preparation(model)
         rooms, locations = self._check_rooms(model)
         worlds = reset_worlds(model)
         self._check_heads(model, worlds)
@@ -534,6 +537,15 @@ class Checker:
             streams(model)
         except DomainError as e:
             self.error(f"layout {model.layout}: {e.reason}", "streams")
+
+    def _check_preparation(self, model) -> None:
+        """[preparation]: its actions are the domain's, its types the layout's (`planning.world.preparation`)."""
+        from planning.world.preparation import Preparation
+
+        try:
+            Preparation.of(model)
+        except DomainError as e:
+            self.error(f"layout {model.layout}: {e.reason}", "preparation")
 
     def _check_unused_types(self, model, first) -> None:
         by_type: dict[str, float] = {}

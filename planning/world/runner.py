@@ -55,13 +55,16 @@ from planning.world.task_stream import PersistentWorld
 
 def play_task(world: PersistentWorld, agent, task, upcoming=()) -> dict:
     """Play one task to its end: begin it; a planner's plan is executed (no plan: abandoned), a policy
-    acts until the task completes or is abandoned. Returns what the agent said about it (Reply.info)."""
+    acts until the task completes or is abandoned. Returns what the agent said about it (Reply.info) and
+    the actions executed ("executed"; none where the task held already)."""
     if world.begin(task):
         return {}
     if not isinstance(agent, Planner):
+        executed = []
         while world.task is not None:
-            world.act(agent.act(world.state, task))
-        return {}
+            executed.append(agent.act(world.state, task))
+            world.act(executed[-1])
+        return {"executed": executed}
     reply = agent.plan(world.state, task, list(upcoming))
     info = dict(reply.info)
     if reply.plan is None:

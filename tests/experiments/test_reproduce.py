@@ -176,10 +176,11 @@ def test_figures_draw_what_they_have_and_nothing_otherwise(tmp_path):
     ]
     logs = {"two-room": {"myopic": {0: run(1), 4: run(2)}, "anticipatory": {0: run(3)}}}
     assert figs.training_curves(logs, tmp_path / "a1.png").stat().st_size > 1000
-    assert figs.refill_share({"anticipatory": run(1)}, tmp_path / "a2.png").is_file()
+    assert figs.refill_share({"anticipatory": run(1)}, tmp_path / "a2.png", "refill-water").is_file()
+    assert figs.refill_share({"anticipatory": run(1)}, tmp_path / "none.png", None) is None  # no [preparation]
     assert figs.training_curves({"two-room": {"myopic": {}}}, tmp_path / "none.png") is None
     assert figs.training_curves({"two-room": {"myopic": {0: []}}}, tmp_path / "none.png") is None
-    assert figs.refill_share({}, tmp_path / "none.png") is None
+    assert figs.refill_share({}, tmp_path / "none.png", "refill-water") is None
     assert figs.greedy_vs_guided({"two-room": {}}, {}, tmp_path / "none.png") is None
     assert not (tmp_path / "none.png").exists()
 
@@ -393,3 +394,41 @@ def test_a_stream_run_is_played_on_its_stream_and_read_back(tiny):
     assert load_run(run, ctx).used
     plain = Run("random", "two-room", ("--seed", "1"), run.out)
     assert not load_run(plain, ctx).used
+
+
+def test_table_a_5_reads_each_discount_runs_training_curve_greedy_and_guided_files(tmp_path, monkeypatch):
+    """Seed 0 of γ = 0.9 exported and evaluated, seed 4 still training (its log): the row is the mean ± std of
+    what both have, the jar share is counted in seed 0's guided plans, and the missing runs keep their commands."""
+    from experiments.report.specs import DiscountRun
+    from experiments.report.tables import discount_table
+    from planning.domain.compiler import compile_domain
+
+    model = compile_domain(ROOT / "domains/restaurant", "three-room")
+    monkeypatch.chdir(tmp_path)
+    done, training = DiscountRun(0.9, 0), DiscountRun(0.9, 4)
+    Path("results").mkdir()
+    curve = [{"step": s, "success_rate": s / 10_000, "selected_q": 30.0} for s in (5_000, 10_000)]
+    Path(done.training).write_text(json.dumps({"curve": curve}))
+    Path(done.greedy).write_text(json.dumps({"cost_per_task": 1500.0}))
+    jar = ["refill-water(cup_0, jar_0, fountain)"] * 3 + ["fill(cup_1, water_fountain, fountain)"]
+    Path(done.guided).write_text(json.dumps({"cost_per_task": 1200.0, "per_task": [{"plan": jar}]}))
+    Path(training.log).parent.mkdir(parents=True)
+    rows = [
+        {"step": 1_000, "success_rate": 0.25, "selected_q": 10.0},
+        {"step": 2_000, "success_rate": 0.35, "selected_q": 14.0},
+    ]
+    Path(training.log).write_text("".join(json.dumps(r) + "\n" for r in rows))
+    lines = discount_table(model)
+    row = next(x for x in lines if x.startswith("| 0.90 |"))
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[1] == "1 of 2; in training: 2,000 steps"
+    assert cells[2] == f"{(0.75 + 0.3) / 2:.3f} ± {stats_std(0.75, 0.3):.3f}"  # each run's mean success
+    assert cells[3] == f"{(30.0 + 12.0) / 2:.1f} ± {stats_std(30.0, 12.0):.1f}"
+    assert cells[4:7] == ["1,500.0 (1 of 2)", "1,200.0 (1 of 2)", "75.0% (1 of 2)"]
+    assert next(x for x in lines if x.startswith("| 0.95 |")).count("—") == 5
+    assert any(done.evaluate not in x and training.evaluate in x for x in lines)
+    assert not any(done.evaluate in x for x in lines)
+
+
+def stats_std(a: float, b: float) -> float:
+    return abs(a - b) / math.sqrt(2)  # the sample standard deviation of two values

@@ -696,7 +696,7 @@ def test_key_figures_of_a_run():
         {"step": 50_000, "success_rate": 0.5, "task_return": 1.0, "demo_q_bias": 0.25},
         {"step": 200_000, "success_rate": 0.9, "task_return": 2.0},
     ]
-    f = key_figures(logs, evals)
+    f = key_figures(logs, evals, "refill-water")
     assert set(f["at"]) == {"50000", "100000", "250000"}
     assert f["at"]["250000"]["step"] == 250_000 and f["at"]["100000"]["greedy"]["demo_q_bias"] == 0.25
     assert f["best_greedy"]["step"] == 200_000
@@ -704,14 +704,14 @@ def test_key_figures_of_a_run():
     assert f["peak_refill_share"] == {"step": 250_000, "share": 0.01}  # ties: the latest window
     # the cumulative share since step 0: windows of 25k steps at 0.01, then one at 0.04
     logs[-1]["action_share"] = {"refill-water": 0.04}
-    f = key_figures(logs, evals)
+    f = key_figures(logs, evals, "refill-water")
     assert f["at"]["100000"]["refill_share_cumulative"] == 0.01
     assert f["at"]["250000"]["refill_share_cumulative"] == round((9 * 0.01 + 0.04) / 10, 5)
     assert f["peak_refill_share_cumulative"] == {"step": 250_000, "share": 0.013}
     assert f["train_hours"] == round(250_000 / 100 / 3600, 3)
     # the curve Figure A.1 is drawn from: a row every 5,000 steps and the last one
     logs = [{**logs[0], "step": s, "selected_q": 1 / 3} for s in range(1_000, 12_001, 1_000)]
-    f = key_figures(logs, evals)
+    f = key_figures(logs, evals, "refill-water")
     assert [r["step"] for r in f["curve"]] == [5_000, 10_000, 12_000]
     assert f["curve"][0] == {
         "step": 5_000,
@@ -720,3 +720,7 @@ def test_key_figures_of_a_run():
         "td_target": 9.0,
         "refill_share_cumulative": 0.01,
     }
+    # a domain that declares no preparation action: no share, the rest alike
+    f = key_figures(logs, evals)
+    assert f["refill_action"] is None and f["peak_refill_share"] is None
+    assert f["curve"][0]["refill_share_cumulative"] is None and f["curve"][0]["td_target"] == 9.0
