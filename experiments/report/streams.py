@@ -2,10 +2,14 @@
 section of the report: what each distribution estimator (`planning.world.estimators`) buys on each stream.
 
 Per layout and stream (the i.i.d. one and every declared one), the rows:
-- the myopic oracle and the clairvoyant oracle (K = 2 and 3) on the stream's canonical sequences: the
-  reference every improvement is measured against, and the floor;
+- the myopic oracle (our optimal A*, whose costs equal Fast Downward's on every i.i.d. task, in seconds
+  instead of an hour per stream) and the clairvoyant oracle (K = 2 and 3) on the stream's canonical
+  sequences: the reference every improvement is measured against, and the floor;
 - the thesis's agent: the anticipatory value trained on the i.i.d. stream and deployed with the layout's P
   (on another stream, the misspecified assumption); on the i.i.d. stream it is Table 5.2's row;
+- the same i.i.d.-trained value deployed with each estimator below: the search's terminal score conditioned
+  on the task just done (or learned online) with the value as trained, what the estimator buys without
+  retraining;
 - agents trained on the stream with an estimator and deployed with the same one (`rl-guided --estimator`): on
   a Markov stream `markov` (P(τ′ | τ) known) and `markov-empirical` (transition counts learned online); on a
   drifting stream `empirical` (stationary counts) and `empirical` with forgetting (`FORGET` per task, a
@@ -82,6 +86,18 @@ def _iid_run(layout: str, stream: str, s) -> Run:
     return Run("rl-guided", layout, options, out, s, ckpt, rl_train("anticipatory", layout, s))
 
 
+def _deploy_run(layout: str, stream: str, name: str, forget: float, s) -> Run:
+    """The thesis's agent (the i.i.d.-trained value) deployed with an estimator: the search's terminal score
+    conditioned or learned, the value as trained (what the estimator buys without retraining)."""
+    ckpt = rl_checkpoint("anticipatory", layout, s)
+    flags = f"--estimator {name}" + ("" if forget == 1.0 else f" --estimator-forget {forget:g}")
+    options = ("--checkpoint", ckpt, *flags.split(), *(() if stream == "iid" else ("--stream", stream)))
+    out = (
+        f"results/rl-guided-anticipatory-{layout}-seed{s}{_suffix(stream)}-deploy-{estimator_label(name, forget)}.json"
+    )
+    return Run("rl-guided", layout, options, out, s, ckpt, rl_train("anticipatory", layout, s))
+
+
 def rows(layout: str, stream: str, kind: str) -> list[Row]:
     """The section's rows for one layout and stream (see the module)."""
     from experiments.report.specs import RL_SEEDS
@@ -90,9 +106,16 @@ def rows(layout: str, stream: str, kind: str) -> list[Row]:
     out = [
         Row(
             "myopic-oracle",
-            "Myopic oracle",
+            "Myopic oracle (optimal, internal A*)",
             layout,
-            (Run("myopic-oracle", layout, extra, f"results/myopic-oracle-{layout}{_suffix(stream)}.json"),),
+            (
+                Run(
+                    "myopic-oracle",
+                    layout,
+                    ("--planner", "internal", *extra),
+                    f"results/myopic-oracle-internal-{layout}{_suffix(stream)}.json",
+                ),
+            ),
         ),
         *(
             Row(
@@ -119,6 +142,18 @@ def rows(layout: str, stream: str, kind: str) -> list[Row]:
             template=_iid_run(layout, stream, "$N"),
         ),
     ]
+    for name, forget in ESTIMATORS[kind]:
+        label = estimator_label(name, forget)
+        out.append(
+            Row(
+                f"dep-{label}",
+                f"Anticipatory RL (guided), i.i.d.-trained, deployed with {label}",
+                layout,
+                tuple(_deploy_run(layout, stream, name, forget, s) for s in SEEDS),
+                seeded=True,
+                template=_deploy_run(layout, stream, name, forget, "$N"),
+            )
+        )
     for name, forget in ESTIMATORS[kind]:
         label = estimator_label(name, forget)
         out.append(
@@ -262,7 +297,7 @@ def section(ctx, layouts, folder: Path) -> list[str]:
     ]
     for (layout, stream, kind), rows in results.items():
         lines += [f"### {layout}, stream {stream} ({kind})", "", *stream_table(rows), ""]
-        pairs = [(k, "iid-agent") for k in rows if k.startswith("est-")]
+        pairs = [(k, "iid-agent") for k in rows if k.startswith(("est-", "dep-"))]
         tests = statistics({f"{layout}, {stream}": rows}, pairs, thesis=False)
         lines += [*(line.replace("(#runs-not-yet-made)", "(#stream-runs-not-yet-made)") for line in tests), ""]
         if kind == "drift":

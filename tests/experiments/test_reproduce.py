@@ -357,10 +357,21 @@ def test_stream_rows_name_the_files_the_trainer_exports_and_the_evaluation_write
         "clairvoyant-2",
         "clairvoyant-3",
         "iid-agent",
+        "dep-empirical",
+        f"dep-empirical-forget{streams.FORGET:g}",
         "est-empirical",
         f"est-empirical-forget{streams.FORGET:g}",
     ]
-    assert rows["myopic-oracle"].runs[0].out == "results/myopic-oracle-three-room-stream-lunch-rush.json"
+    oracle = rows["myopic-oracle"].runs[0]
+    assert oracle.out == "results/myopic-oracle-internal-three-room-stream-lunch-rush.json"
+    assert oracle.options == ("--planner", "internal", "--stream", "lunch-rush")
+    # the i.i.d.-trained value deployed with the forgetting estimator: the thesis's checkpoint, the stream's play
+    deploy = rows[f"dep-empirical-forget{streams.FORGET:g}"].runs[0]
+    assert deploy.checkpoint == "checkpoints/rl-anticipatory-three-room-seed0.pt"
+    assert deploy.command.endswith(
+        "--estimator empirical --estimator-forget 0.95 --stream lunch-rush "
+        "--out results/rl-guided-anticipatory-three-room-seed0-stream-lunch-rush-deploy-empirical-forget0.95.json"
+    )
     run = rows[f"est-empirical-forget{streams.FORGET:g}"].runs[0]
     cfg = {
         "horizon": "anticipatory",
