@@ -80,6 +80,21 @@ HEURISTICS = {
             lookup=True,
         ),
         Heuristic(
+            "pdb-grown",
+            "pattern databases with the window's best pattern grown by one neighbour object "
+            "(planning.heuristics.pdb, up to GROW_STATES abstract states)",
+            pdb.build_grown,
+            searches=("window",),
+            supports=lambda model: bool(model.locations),
+            fallback={"window": "layered"},
+            needs="needs the locations that rooms under [layouts.{layout}] in domain.toml list",
+            records={
+                "window": "max(pattern databases of the current stage, the window's pattern databases over the "
+                "stages left, its best pattern grown by one neighbour object)"
+            },
+            lookup=True,
+        ),
+        Heuristic(
             "layered",
             "LM-cut on the window's stage-layered relaxation (planning.heuristics.layered)",
             layered.build,

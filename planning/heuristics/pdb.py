@@ -33,6 +33,7 @@ world is in them; a state outside (e.g. hand-written) gets h = 0.
 from __future__ import annotations
 
 import itertools
+import time
 from collections import OrderedDict
 from dataclasses import dataclass
 from functools import lru_cache
@@ -351,6 +352,7 @@ class PatternDatabases:
         self._plans: dict = {}
         self._windows: OrderedDict = OrderedDict()  # least recently used first, WINDOW_CACHE_BYTES in all
         self._additive: dict = {}
+        self.building = 0.0  # seconds spent building window estimates (`window`), which search clocks leave out
         for task in self.tasks:
             for op in task.bindings:
                 self.tables(op)
@@ -451,7 +453,7 @@ class PatternDatabases:
             self.projections[objects] = (p, budget)
         return p if p is not None and p.size <= budget else None
 
-    def window(self, tasks: list, sample: np.ndarray | None = None, max_states: int = 1_000_000) -> list:
+    def window(self, tasks: list, sample: np.ndarray | None = None, max_states: int = 1_000_000, grow: int = 0) -> list:
         """[[(projection, [(size + 1,) cost-to-go per stage]), ...] per estimate, whose values add] for
         completing `tasks` in order (a clairvoyant window from its current stage on); built once per
         window, `sample` (packed states, e.g. the search's first) guides the choice below.
@@ -464,11 +466,19 @@ class PatternDatabases:
         for each group in turn, the pattern with the largest estimate on the sample among those
         that contain it and share no object with the ones already chosen (two coffees' cups and
         water machine, then a fruit bowl's apple, bowl and knife), partitioned in each rotation of
-        that order (the first pattern takes the moves it needs). The estimate is the largest."""
-        key = (tuple(t.index for t in tasks), max_states)
+        that order (the first pattern takes the moves it needs). The estimate is the largest.
+
+        grow > 0: the pattern with the largest estimate on the sample is grown by one neighbour object
+        (a step of Haslum et al.'s 2007 hill climbing over patterns): each neighbour in turn, in a
+        projection of up to `grow` abstract states; the best, where it raises the sample's estimate, adds
+        two estimates: alone, and first in a saturated partition with the chosen patterns it shares no
+        object with (two coffees' cups and machine water with the jar, whose place decides what a refill
+        from it costs). Every estimate without it is kept, so growing never lowers the estimate."""
+        key = (tuple(t.index for t in tasks), max_states, grow)
         if key in self._windows:
             self._windows.move_to_end(key)
         else:
+            t0 = time.perf_counter()
             objects = lambda task: frozenset().union(*(self.goal_objects(op) for op in task.bindings))
             base, covered = frozenset(), 0
             for task in tasks:
@@ -494,9 +504,34 @@ class PatternDatabases:
             for i in range(len(order) if len(order) > 1 else 0):  # each pattern first once
                 turn = order[i:] + order[:i]
                 estimates.append(self.saturated_window(tasks, turn, alone[turn[0]]))
+            grown = self._grow(tasks, sample, found, alone, grow) if grow and found and sample is not None else None
+            if grown is not None:  # one more estimate alone, and first in a partition with the disjoint rest
+                estimates.append([(grown, alone[grown])])
+                rest = [p for p in order if not p.objects & grown.objects]
+                if rest:
+                    estimates.append(self.saturated_window(tasks, [grown, *rest], alone[grown]))
             self._windows[key] = estimates
             self._evict_windows()
+            self.building += time.perf_counter() - t0
         return self._windows[key]
+
+    def _grow(self, tasks: list, sample: np.ndarray, found: list, alone: dict, budget: int) -> Projection | None:
+        """The best pattern grown by one neighbour object (see `window`), its distances added to `alone`; None
+        where no neighbour fits the budget or raises the sample's estimate."""
+        value = lambda p, togo: int(togo[0][p.index(sample)].min())
+        best = max(found, key=lambda p: (value(p, alone[p]), p.size))
+        near = set().union(*(self.neighbours[o] for o in best.objects)) - best.objects
+        top, top_value = None, value(best, alone[best])
+        for x in sorted(near, key=self.model.objects.index):
+            p = self.projection(best.objects | {x}, budget)
+            if p is None or p in alone:
+                continue
+            togo = p.window_distances(tasks)
+            if value(p, togo) > top_value:
+                top, top_value, top_togo = p, value(p, togo), togo
+        if top is not None:
+            alone[top] = top_togo
+        return top
 
     def _evict_windows(self) -> None:
         """Forget the least recently used windows' distances beyond WINDOW_CACHE_BYTES (a K = 4 run
@@ -520,11 +555,11 @@ class PatternDatabases:
                 rest = rest - p.saturated(togo, rest)
         return out
 
-    def window_estimate(self, batch: np.ndarray, tasks: list) -> np.ndarray:
+    def window_estimate(self, batch: np.ndarray, tasks: list, grow: int = 0) -> np.ndarray:
         """(N,) int64 admissible cost of completing `tasks` in order from each state of the batch (the
         stage of tasks[0]): the largest over `window(tasks)`'s estimates (INF_64: a dead end)."""
         out = np.zeros(len(batch), dtype=np.int64)
-        for parts in self.window(tasks, batch[:1]):
+        for parts in self.window(tasks, batch[:1], grow=grow):
             total = np.zeros(len(batch), dtype=np.int64)
             for proj, togo in parts:
                 total += np.minimum(togo[0][proj.index(batch)], _PART_INF)
@@ -596,13 +631,28 @@ def pattern_databases(model, n_words: int) -> PatternDatabases:
     return PatternDatabases(model, bm)
 
 
-def build(bm, search: str):
+GROW_STATES = 4_000_000
+"""Abstract states of a grown window pattern (`build_grown`): the restaurant's two cups, machine water and jar
+take 2.75 million."""
+
+
+def build(bm, search: str, grow: int = 0):
     """The registry's builder (planning.heuristics): the layout's pattern databases, the nearest goal's estimate
     (task and multi-goal searches), or in the window the larger of the current stage's and the window's."""
     pdb = pattern_databases(bm.model, bm.n_words)
     if search == "window":
-        return lambda batch, goals: np.maximum(pdb.per_goal(batch, goals[:1])[:, 0], pdb.window_estimate(batch, goals))
+
+        def h(batch, goals):
+            return np.maximum(pdb.per_goal(batch, goals[:1])[:, 0], pdb.window_estimate(batch, goals, grow))
+
+        h.building = lambda: pdb.building  # what a search's time limit leaves out
+        return h
     return lambda batch, goals: pdb.per_goal(batch, goals).min(1)
+
+
+def build_grown(bm, search: str):
+    """The window's pattern databases with the best window pattern grown by one neighbour (`window`'s grow)."""
+    return build(bm, search, GROW_STATES)
 
 
 def _reset_states(model, limit: int = 4096) -> list[int]:

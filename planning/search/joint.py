@@ -117,6 +117,7 @@ class JointSearch:
             time_limit,
             heuristic=h,
             after_step=lambda b: self._complete(b, tasks),
+            building=getattr(stages_left, "building", None),
         )
         w, b = self._stage_word(K)
         for _, rows, ids, g in levels:

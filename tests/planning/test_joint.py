@@ -333,3 +333,34 @@ def test_window_pattern_databases_are_admissible_along_optimal_plans(two_room, j
         stage = int(joint._stages(rows, K)[0])
         for parts in pdb.window(window[stage:], rows) if stage < K else []:
             assert sum(int(togo[0][proj.index(rows)[0]]) for proj, togo in parts) <= cost - g
+
+
+def test_the_time_limit_leaves_out_the_heuristics_building(two_room, monkeypatch):
+    """A window heuristic that spends 8 s building on its second call (as a window's later stage builds its
+    pattern databases when the search first reaches it) and says so (`building`): a 6 s limit still finds
+    the two-water window's optimum; the same heuristic that does not say so runs out of time."""
+    import time as clock
+
+    import planning.search.joint as joint_module
+    from planning.heuristics import build
+
+    pdb = build("pdb", JointSearch(two_room, max_window=2).bm, "window")
+    spent = {"calls": 0, "building": 0.0}
+
+    def slow(batch, goals):
+        spent["calls"] += 1
+        if spent["calls"] == 2:
+            clock.sleep(8.0)
+            spent["building"] += 8.0
+        return pdb(batch, goals)
+
+    water = two_room.tasks.get("serve-water(servingtable)")
+    for says, cost in ((True, 2375), (False, None)):
+        spent.update(calls=0, building=0.0)
+        if says:
+            slow.building = lambda: spent["building"]
+        elif hasattr(slow, "building"):
+            del slow.building
+        monkeypatch.setattr(joint_module, "build", lambda name, bm, search: slow)
+        r = JointSearch(two_room, max_window=2).plan(two_room.reset_state(0), [water, water], time_limit=6.0)
+        assert r.cost == cost
