@@ -81,7 +81,7 @@ HEURISTICS = {
         ),
         Heuristic(
             "pdb-grown",
-            "pattern databases with the window's best pattern grown by one neighbour object "
+            "pattern databases with each chosen window pattern grown by one neighbour object "
             "(planning.heuristics.pdb, up to GROW_STATES abstract states)",
             pdb.build_grown,
             searches=("window",),
@@ -90,7 +90,7 @@ HEURISTICS = {
             needs="needs the locations that rooms under [layouts.{layout}] in domain.toml list",
             records={
                 "window": "max(pattern databases of the current stage, the window's pattern databases over the "
-                "stages left, its best pattern grown by one neighbour object)"
+                "stages left, each chosen pattern grown by one neighbour object)"
             },
             lookup=True,
         ),

@@ -468,12 +468,13 @@ class PatternDatabases:
         water machine, then a fruit bowl's apple, bowl and knife), partitioned in each rotation of
         that order (the first pattern takes the moves it needs). The estimate is the largest.
 
-        grow > 0: the pattern with the largest estimate on the sample is grown by one neighbour object
-        (a step of Haslum et al.'s 2007 hill climbing over patterns): each neighbour in turn, in a
-        projection of up to `grow` abstract states; the best, where it raises the sample's estimate, adds
-        two estimates: alone, and first in a saturated partition with the chosen patterns it shares no
-        object with (two coffees' cups and machine water with the jar, whose place decides what a refill
-        from it costs). Every estimate without it is kept, so growing never lowers the estimate."""
+        grow > 0: the pattern with the largest estimate on the sample and each chosen one (one per task
+        group) is grown by one neighbour object (a step of
+        Haslum et al.'s 2007 hill climbing over patterns): each neighbour in turn, in a projection of up
+        to `grow` abstract states; the best, where it raises the sample's estimate, adds two estimates:
+        alone, and first in a saturated partition with the chosen patterns it shares no object with (two
+        coffees' cups and machine water with the jar, whose place decides what a refill from it costs).
+        Every estimate without it is kept, so growing never lowers the estimate."""
         key = (tuple(t.index for t in tasks), max_states, grow)
         if key in self._windows:
             self._windows.move_to_end(key)
@@ -504,22 +505,23 @@ class PatternDatabases:
             for i in range(len(order) if len(order) > 1 else 0):  # each pattern first once
                 turn = order[i:] + order[:i]
                 estimates.append(self.saturated_window(tasks, turn, alone[turn[0]]))
-            grown = self._grow(tasks, sample, found, alone, grow) if grow and found and sample is not None else None
-            if grown is not None:  # one more estimate alone, and first in a partition with the disjoint rest
-                estimates.append([(grown, alone[grown])])
-                rest = [p for p in order if not p.objects & grown.objects]
-                if rest:
-                    estimates.append(self.saturated_window(tasks, [grown, *rest], alone[grown]))
+            best = [max(found, key=value)] if grow and found and sample is not None else []
+            for p in dict.fromkeys(best + order if best else []):
+                grown = self._grow(tasks, sample, p, alone, grow)
+                if grown is not None:  # one more estimate alone, and first in a partition with the disjoint rest
+                    estimates.append([(grown, alone[grown])])
+                    rest = [q for q in order if not q.objects & grown.objects]
+                    if rest:
+                        estimates.append(self.saturated_window(tasks, [grown, *rest], alone[grown]))
             self._windows[key] = estimates
             self._evict_windows()
             self.building += time.perf_counter() - t0
         return self._windows[key]
 
-    def _grow(self, tasks: list, sample: np.ndarray, found: list, alone: dict, budget: int) -> Projection | None:
-        """The best pattern grown by one neighbour object (see `window`), its distances added to `alone`; None
-        where no neighbour fits the budget or raises the sample's estimate."""
+    def _grow(self, tasks: list, sample: np.ndarray, best, alone: dict, budget: int) -> Projection | None:
+        """`best` grown by the neighbour object that raises the sample's estimate most (see `window`), its
+        distances added to `alone`; None where no neighbour fits the budget or raises the estimate."""
         value = lambda p, togo: int(togo[0][p.index(sample)].min())
-        best = max(found, key=lambda p: (value(p, alone[p]), p.size))
         near = set().union(*(self.neighbours[o] for o in best.objects)) - best.objects
         top, top_value = None, value(best, alone[best])
         for x in sorted(near, key=self.model.objects.index):
@@ -651,7 +653,7 @@ def build(bm, search: str, grow: int = 0):
 
 
 def build_grown(bm, search: str):
-    """The window's pattern databases with the best window pattern grown by one neighbour (`window`'s grow)."""
+    """The window's pattern databases with each chosen window pattern grown by one neighbour (`window`'s grow)."""
     return build(bm, search, GROW_STATES)
 
 
