@@ -142,30 +142,23 @@ def rows(layout: str, stream: str, kind: str) -> list[Row]:
             template=_iid_run(layout, stream, "$N"),
         ),
     ]
-    for name, forget in ESTIMATORS[kind]:
-        label = estimator_label(name, forget)
-        out.append(
-            Row(
-                f"dep-{label}",
-                f"Anticipatory RL (guided), i.i.d.-trained, deployed with {label}",
-                layout,
-                tuple(_deploy_run(layout, stream, name, forget, s) for s in SEEDS),
-                seeded=True,
-                template=_deploy_run(layout, stream, name, forget, "$N"),
+    kinds = (
+        ("dep", "i.i.d.-trained, deployed with", _deploy_run),
+        ("est", "trained and deployed with", _est_run),
+    )
+    for prefix, how, run in kinds:
+        for name, forget in ESTIMATORS[kind]:
+            label = estimator_label(name, forget)
+            out.append(
+                Row(
+                    f"{prefix}-{label}",
+                    f"Anticipatory RL (guided), {how} {label}",
+                    layout,
+                    tuple(run(layout, stream, name, forget, s) for s in SEEDS),
+                    seeded=True,
+                    template=run(layout, stream, name, forget, "$N"),
+                )
             )
-        )
-    for name, forget in ESTIMATORS[kind]:
-        label = estimator_label(name, forget)
-        out.append(
-            Row(
-                f"est-{label}",
-                f"Anticipatory RL (guided), trained and deployed with {label}",
-                layout,
-                tuple(_est_run(layout, stream, name, forget, s) for s in SEEDS),
-                seeded=True,
-                template=_est_run(layout, stream, name, forget, "$N"),
-            )
-        )
     return out
 
 
