@@ -102,14 +102,12 @@ def stamp(run, via: str) -> None:
 def train_discount_sweep(progress: bool = True) -> None:
     """Table A.5's runs: train, export and greedily evaluate them (`specs.DISCOUNT_TRAIN`: every run resumes
     from its last.pt, a finished one is skipped), then the guided evaluation of each run that lacks it."""
-    args = shlex.split(DISCOUNT_TRAIN)[1:] + ([] if progress else ["--no-progress"])
-    print(DISCOUNT_TRAIN, file=sys.stderr)
-    subprocess.run([sys.executable, *args], check=True)
-    for run in discount_runs():
-        if not Path(run.guided).is_file():
-            print(run.evaluate, file=sys.stderr)
-            args = shlex.split(run.evaluate)[1:] + ([] if progress else ["--no-progress"])
-            subprocess.run([sys.executable, *args], check=True)
+    commands = [DISCOUNT_TRAIN, *(run.evaluate for run in discount_runs() if not Path(run.guided).is_file())]
+    for command in commands:  # `python -m ...` lines, run with this interpreter
+        print(command, file=sys.stderr)
+        subprocess.run(
+            [sys.executable, *shlex.split(command)[1:], *([] if progress else ["--no-progress"])], check=True
+        )
 
 
 # ---- the command --------------------------------------------------------------------------

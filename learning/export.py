@@ -111,12 +111,17 @@ def greedy_loss(payload: dict, small: dict, model, n: int = PROBE_STATES) -> flo
     return float(np.max(q[rows, q.argmax(1)] - q[rows, half.fast(obs, valid).argmax(1)]))
 
 
+def payload_layout(payload: dict) -> str | None:
+    """The layout a Q-learning checkpoint was trained on (its config, or the signature of an older run)."""
+    return payload.get("config", {}).get("layout") or payload.get("signature", {}).get("layout")
+
+
 def faithful_compact(payload: dict, source: str | None = None) -> tuple[dict, float]:
     """(compact checkpoint, float16's greedy loss): float16 weights where they change no greedy action by more
     than a tie (TIE), float32 otherwise (a network whose values are so large that float16's rounding moves
     them by more than their action gaps, as a diverged run's)."""
     cfg = payload.get("config", {})
-    layout = cfg.get("layout") or payload.get("signature", {}).get("layout")
+    layout = payload_layout(payload)
     if not layout:
         raise DomainError("checkpoint", "names no layout (config or signature) to probe its float16 copy on")
     small = compact(payload, source)
@@ -471,8 +476,7 @@ def export(
         logs, evals = split_metrics(run / "metrics.jsonl")
         small, loss = faithful_compact(payload, sha256(best))
         cfg = payload.get("config", {})
-        layout = cfg.get("layout") or payload.get("signature", {}).get("layout")
-        prep = Preparation.of(compile_domain(cfg.get("domain", Config.domain), layout))
+        prep = Preparation.of(compile_domain(cfg.get("domain", Config.domain), payload_layout(payload)))
         recorded = {k: payload[k] for k in DOMAIN_KEYS if k in payload} or {
             "domain": payload.get("signature", {}).get("domain")
         }  # a run from before domains were recorded

@@ -306,6 +306,16 @@ def read_jsonl(path) -> list[dict]:
     return read_metrics(path, strict=False)[0] if Path(path).is_file() else []
 
 
+def read_finished(path) -> dict | None:
+    """A finished results file's content (None if missing or still being written); a corrupt one is a
+    one-line error (`planning.atomic.read_json`), not a table row that reads as never run."""
+    p = Path(path)
+    if not p.is_file() or Path(f"{p}.partial.json").is_file():
+        return None
+    data = read_json(p)
+    return data if isinstance(data, dict) else None
+
+
 def curve(log: str) -> list[dict]:
     """A training run's logged rows: the curve its results file keeps (`learning.export`), or its metrics.jsonl."""
     if log.endswith(".json"):

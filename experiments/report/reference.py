@@ -12,20 +12,9 @@ import math
 from pathlib import Path
 
 from experiments.report.data import mean_std
+from experiments.report.data import read_finished as read
 from experiments.report.specs import LAYOUTS, THESIS, THESIS_MINIMAL
 from experiments.report.tables import num, pct, table
-
-
-def read(path) -> dict | None:
-    """A finished results file's content (None if missing or still being written); a corrupt one is a
-    one-line error (`planning.atomic.read_json`), not a table row that reads as never run."""
-    from planning.atomic import read_json
-
-    p = Path(path)
-    if not p.is_file() or Path(f"{p}.partial.json").is_file():
-        return None
-    data = read_json(p)
-    return data if isinstance(data, dict) else None
 
 
 def missing(path, command) -> list[str]:

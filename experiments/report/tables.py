@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from experiments import stats
-from experiments.report.data import ALL, DEVELOPMENT, HELD_OUT, RowResult, curve, improvement
+from experiments.report.data import ALL, DEVELOPMENT, HELD_OUT, RowResult, curve, improvement, read_finished
 from experiments.report.specs import (
     ABLATION,
     AGENTS,
@@ -423,21 +423,13 @@ def _thesis_stats(th: dict) -> str:
 
 
 # ---- Table A.5 ------------------------------------------------------------------------------
-def _finished(path: str) -> dict | None:
-    """A finished results file (None where it is missing or still being written)."""
-    from planning.atomic import read_json
-
-    p = Path(path)
-    return read_json(p) if p.is_file() and not Path(f"{p}.partial.json").is_file() else None
-
-
 def discount_figures(run, prep) -> dict:
     """One sweep run's figures (`specs.DiscountRun`): over its training curve (the exported one, else the log
     of a run still training) the mean success of the last 100 tasks and the mean selected Q; the greedy and
     guided cost per task; the preparation's share of deliveries in the guided plans (`prep`, the layout's
     [preparation]). A figure the run lacks is absent."""
     out: dict = {}
-    trained = _finished(run.training)
+    trained = read_finished(run.training)
     rows = trained.get("curve") if trained else curve(run.log)
     if rows:
         out.update(
@@ -447,7 +439,7 @@ def discount_figures(run, prep) -> dict:
             q=float(np.mean([r["selected_q"] for r in rows])),
         )
     for kind, path in (("greedy", run.greedy), ("guided", run.guided)):
-        data = _finished(path)
+        data = read_finished(path)
         if data and data.get("cost_per_task") is not None:
             out[kind] = data["cost_per_task"]
             if kind == "guided" and prep is not None:
@@ -463,12 +455,9 @@ def _spread(figs: list[dict], key: str, fmt) -> str:
     return cell + ("" if len(xs) == len(figs) else f" ({len(xs)} of {len(figs)})")
 
 
-def discount_table(model) -> list[str]:
+def discount_table(prep) -> list[str]:
     """Table A.5 beside the thesis's: per discount, the sweep's seeds (`specs.discount_runs`) as mean ± std.
-    `model`: the three-room layout, whose [preparation] says what a delivery from the jar is."""
-    from planning.world.preparation import Preparation
-
-    prep = Preparation.of(model)
+    `prep`: the three-room layout's [preparation] (`planning.world.preparation`), what a delivery from the jar is."""
     runs = discount_runs()
     body, missing = [], []
     for gamma in GAMMAS:

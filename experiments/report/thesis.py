@@ -276,7 +276,7 @@ def report(layouts, ctx: Context, out: Path, command: str) -> str:
                     f"{kept[name]} of them (`runs/` is not committed), so it was not redrawn.",
                     "",
                 ]
-    lines += ["## Table A.5: the discount sweep (optional)", "", *tables.discount_table(ctx.model("three-room")), ""]
+    lines += ["## Table A.5: the discount sweep (optional)", "", *tables.discount_table(prep), ""]
     lines += ["## Task streams: unknown, drifting and correlated (beyond the thesis)", ""]
     lines += streams.section(ctx, layouts, folder)
     ckpts = [

@@ -505,8 +505,8 @@ class PatternDatabases:
             for i in range(len(order) if len(order) > 1 else 0):  # each pattern first once
                 turn = order[i:] + order[:i]
                 estimates.append(self.saturated_window(tasks, turn, alone[turn[0]]))
-            best = [max(found, key=value)] if grow and found and sample is not None else []
-            for p in dict.fromkeys(best + order if best else []):
+            grown_from = [max(found, key=value), *order] if grow and found and sample is not None else []
+            for p in dict.fromkeys(grown_from):  # the best pattern, then each chosen one (once each)
                 grown = self._grow(tasks, sample, p, alone, grow)
                 if grown is not None:  # one more estimate alone, and first in a partition with the disjoint rest
                     estimates.append([(grown, alone[grown])])
@@ -529,8 +529,9 @@ class PatternDatabases:
             if p is None or p in alone:
                 continue
             togo = p.window_distances(tasks)
-            if value(p, togo) > top_value:
-                top, top_value, top_togo = p, value(p, togo), togo
+            v = value(p, togo)
+            if v > top_value:
+                top, top_value, top_togo = p, v, togo
         if top is not None:
             alone[top] = top_togo
         return top

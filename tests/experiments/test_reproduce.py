@@ -413,6 +413,7 @@ def test_table_a_5_reads_each_discount_runs_training_curve_greedy_and_guided_fil
     from experiments.report.specs import DiscountRun
     from experiments.report.tables import discount_table
     from planning.domain.compiler import compile_domain
+    from planning.world.preparation import Preparation
 
     model = compile_domain(ROOT / "domains/restaurant", "three-room")
     monkeypatch.chdir(tmp_path)
@@ -429,7 +430,7 @@ def test_table_a_5_reads_each_discount_runs_training_curve_greedy_and_guided_fil
         {"step": 2_000, "success_rate": 0.35, "selected_q": 14.0},
     ]
     Path(training.log).write_text("".join(json.dumps(r) + "\n" for r in rows))
-    lines = discount_table(model)
+    lines = discount_table(Preparation.of(model))
     row = next(x for x in lines if x.startswith("| 0.90 |"))
     cells = [c.strip() for c in row.strip("|").split("|")]
     assert cells[1] == "1 of 2; in training: 2,000 steps"
