@@ -193,6 +193,36 @@ def test_clairvoyant_chain_that_meets_the_proven_bound_is_optimal(two_room, monk
     assert info["bounded"] and not info["optimal"] and (info["lower_bound"], info["window_cost"]) == (775, 1000)
 
 
+def test_clairvoyant_escalates_only_the_windows_its_first_heuristic_leaves_unproven(two_room, monkeypatch):
+    # "pdb,lmcut": the pdb search is stopped after its first state; where the chain meets the bound it
+    # proved (the plate to the shelf twice, 575) the window is decided without LM-cut, else LM-cut searches
+    # it again from scratch and proves the joint optimum.
+    from oracles.clairvoyant import ClairvoyantOracle
+
+    oracle = ClairvoyantOracle(2, heuristic="pdb,lmcut")
+    assert oracle.run_name == "clairvoyant-2-pdb-then-lmcut"
+    oracle.start(two_room, None)
+    searched = []
+    plan = oracle._joint.plan
+
+    def stopped_pdb(state, tasks, heuristic, **kw):
+        searched.append(heuristic)
+        return plan(state, tasks, heuristic=heuristic, **kw, **({"max_states": 1} if heuristic == "pdb" else {}))
+
+    monkeypatch.setattr(oracle._joint, "plan", stopped_pdb)
+    state = two_room.reset_state(0)
+    plate, cup = (two_room.tasks.get(n) for n in ["pick-place(plate_0, shelf)", "pick-place(cup_0, servingtable)"])
+    info = oracle.plan(state, plate, [plate]).info
+    assert searched == ["pdb"] and info["heuristic"] == "pdb"
+    assert info["bounded"] and info["optimal"] and info["window_cost"] == info["lower_bound"] == 575
+    searched.clear()
+    reply = oracle.plan(state, plate, [cup])
+    best = plan(state, [plate, cup], heuristic="pdb")
+    assert searched == ["pdb", "lmcut"] and reply.info["heuristic"] == "lmcut"
+    assert not reply.info["bounded"] and reply.info["optimal"]
+    assert reply.info["window_cost"] == reply.info["lower_bound"] == best.cost < 1000  # below the chain's 1,000
+
+
 def _run(model, state, plan):
     for a in plan:
         state = model.apply(state, a)
