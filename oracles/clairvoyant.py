@@ -81,7 +81,7 @@ class ClairvoyantOracle(Planner):
         self.K, self.time_limit, self.heuristics = K, time_limit, chain
         self.log = Path(log) if log else None
         self.name = f"clairvoyant-{K}"
-        self.run_name = self.name if chain == ["pdb"] else f"{self.name}-{'-then-'.join(chain)}"
+        self.run_name = run_name(K, heuristic)
         searches = [f"astar({describe(h, 'window')}) by f-levels, pathmax, reopening" for h in chain]
         self.config = {
             "K": K,
@@ -176,6 +176,12 @@ class ClairvoyantOracle(Planner):
             "median_window_seconds": statistics.median(seconds),
             "max_window_seconds": max(seconds),
         }
+
+
+def run_name(K: int, heuristic: str = "pdb") -> str:
+    """The run's name in its results file: clairvoyant-K, with the heuristic where it is not the default
+    (an escalation "pdb,pdb-grown" as pdb-then-pdb-grown)."""
+    return f"clairvoyant-{K}" if heuristic == "pdb" else f"clairvoyant-{K}-{heuristic.replace(',', '-then-')}"
 
 
 def proven_optimal(window: dict) -> bool:
