@@ -95,6 +95,8 @@ def gnn_seeds(domain: str, layout: str, variant: str) -> list[int]:
 
 def rows(ctx, layout: str) -> list[Row]:
     """The rows of one layout of the domain folder `ctx.domain`, each run with its results file and command."""
+    from oracles.clairvoyant import run_name  # the oracle's own file name; a heavy import, so here
+
     folder, domain = ctx.domain, ctx.model(layout).name
     d = ("--domain", folder)
 
@@ -187,7 +189,7 @@ def rows(ctx, layout: str) -> list[Row]:
                         "clairvoyant",
                         layout,
                         (*d, "--K", str(K), "--time-limit", "60"),
-                        results_name(domain, f"clairvoyant-{K}", layout),
+                        results_name(domain, run_name(K), layout),
                     ),
                 ),
             )

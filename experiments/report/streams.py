@@ -101,6 +101,7 @@ def _deploy_run(layout: str, stream: str, name: str, forget: float, s) -> Run:
 def rows(layout: str, stream: str, kind: str) -> list[Row]:
     """The section's rows for one layout and stream (see the module)."""
     from experiments.report.specs import RL_SEEDS
+    from oracles.clairvoyant import run_name  # the oracle's own file name; a heavy import, so here
 
     extra = () if stream == "iid" else ("--stream", stream)
     out = [
@@ -127,7 +128,7 @@ def rows(layout: str, stream: str, kind: str) -> list[Row]:
                         "clairvoyant",
                         layout,
                         ("--K", str(k), "--time-limit", "60", *extra),
-                        f"results/clairvoyant-{k}-{layout}{_suffix(stream)}.json",
+                        f"results/{run_name(k)}-{layout}{_suffix(stream)}.json",
                     ),
                 ),
             )
