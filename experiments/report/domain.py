@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 
 from experiments.report import provenance, tables
-from experiments.report.data import ALL, DEVELOPMENT, HELD_OUT, improvement, load_rows
+from experiments.report.data import ALL, DEVELOPMENT, HELD_OUT, improvement, load_rows, read_finished
 from experiments.report.specs import HORIZONS, Row, Run
 from experiments.report.tables import (
     SHARE_TEXT,
@@ -38,6 +38,7 @@ from experiments.report.tables import (
     status,
     table,
 )
+from planning.errors import DomainError
 
 CLAIRVOYANT_K = (2, 3)
 COMPARISONS = (
@@ -45,15 +46,25 @@ COMPARISONS = (
     ("anticipatory-rl-guided", "myopic-oracle"),
     ("anticipatory-rl-guided", "clairvoyant-2"),
     ("anticipatory-rl-greedy", "myopic-rl-greedy"),
+    ("anticipatory-rl-guided", "gnn-augmented"),
+    ("anticipatory-rl-guided", "gnn-augmented-bn"),
 )
 """The pairs the statistics section tests where both rows exist (A against B)."""
+ROW_KEYS = (
+    "myopic-oracle",
+    "myopic-oracle-internal",
+    *(f"{h}-rl-{d}" for h in HORIZONS for d in ("greedy", "guided")),
+    *(f"{g}{bn}" for g in ("gnn", "gnn-augmented") for bn in ("", "-bn")),
+    *(f"clairvoyant-{K}" for K in CLAIRVOYANT_K),
+)
+"""Every row key a layout's tables may have (the GNN rows only where their models exist)."""
 LEARNED = ("myopic-rl-greedy", "anticipatory-rl-greedy", "myopic-rl-guided", "anticipatory-rl-guided")
 NOT_APPLICABLE = [
     "the thesis's figures and columns (its costs are the restaurant's);",
     "Table 5.3, the value–search ablation of the three-room restaurant;",
     "Table A.5, the discount sweep (three-room, seed 0);",
-    "the restaurant's reference tables: its planner, labelling, trainer and GNN benchmarks, reward calibration, "
-    "β selection, training runs and the thesis's minimal example (`python -m experiments.reproduce` reports them).",
+    "the restaurant's other reference tables: its labelling, trainer and GNN benchmarks, β selection, training "
+    "runs and the thesis's minimal example (`python -m experiments.reproduce` reports them).",
 ]
 
 
@@ -168,16 +179,20 @@ def rows(ctx, layout: str) -> list[Row]:
     ):
         seeds = gnn_seeds(domain, layout, variant)
         if seeds:
-            out.append(
-                Row(
-                    key,
-                    label,
-                    layout,
-                    tuple(gnn_run("gnn-native", variant, s) for s in seeds),
-                    seeded=True,
-                    template=gnn_run("gnn-native", variant, "$N"),
+            for agent, suffix, deployment in (
+                ("gnn-native", "", "native selection"),
+                ("gnn-guided", "-bn", "BN search"),
+            ):
+                out.append(
+                    Row(
+                        key + suffix,
+                        f"{label}, {deployment}",
+                        layout,
+                        tuple(gnn_run(agent, variant, s) for s in seeds),
+                        seeded=True,
+                        template=gnn_run(agent, variant, "$N"),
+                    )
                 )
-            )
     for K in CLAIRVOYANT_K:
         out.append(
             Row(
@@ -300,6 +315,104 @@ def clairvoyant_share(results: dict) -> list[str]:
     return table(["layout", "method", "improvement", *(f"share of K = {K} saving" for K in CLAIRVOYANT_K)], body)
 
 
+def tools(ctx, layouts) -> list[str]:
+    """The domain's simulator and planner benchmarks and its reward calibration, a row per layout (each file
+    as its command names it by default; "not run" with the command where it is missing)."""
+    from learning.reward import calibration_path
+
+    folder, body = ctx.domain, []
+    for layout in layouts:
+        name = ctx.model(layout).name
+        d = ("--domain", folder, "--layout", layout)
+        files = {
+            "sim": (
+                f"results/{name}-bench-simulator-{layout}.json",
+                "planning.external.simulator_bench",
+                ("--out", f"results/{name}-bench-simulator-{layout}.json"),
+            ),
+            "planner": (results_name(name, "bench-planner", layout), "oracles.planner_bench", ()),
+            "calibration": (str(calibration_path(ctx.model(layout))), "experiments.calibrate", ()),
+        }
+        got = {k: read_finished(path) for k, (path, _, _) in files.items()}
+        todo = [f"`python -m {mod} {' '.join((*d, *extra))}`" for k, (_, mod, extra) in files.items() if got[k] is None]
+        sim, plan, cal = got["sim"], got["planner"], got["calibration"]
+        body.append(
+            [
+                layout,
+                f"{num(sim['ratio_single'], 0)}× / {num(sim['ratio_batched'], 0)}×" if sim else "not run",
+                (
+                    f"{num(plan['ratio_total'], 1)}× over {plan['calls']} calls, "
+                    f"{'equal' if plan['equal_costs'] else '**unequal**'} costs"
+                )
+                if plan
+                else "not run",
+                f"{num(cal['d_max'], 2)}, {num(cal['r_goal'], 2)} (γ = {cal['gamma']})" if cal else "not run",
+                "; ".join(todo) or "—",
+            ]
+        )
+    return table(
+        [
+            "layout",
+            "simulator vs unified-planning, single / batched",
+            "our A* vs Fast Downward",
+            "calibration D_max, R_goal",
+            "missing: commands",
+        ],
+        body,
+    )
+
+
+PUBLISHED_KEYS = ("source", "what", "reduction", "layout", "ours", "protocol")
+"""The keys of a domain.toml [[published]] entry (the module `published`)."""
+
+
+def published(ctx, results: dict) -> list[str]:
+    """The figures the literature published on this domain (domain.toml [[published]]), each beside ours.
+
+    An entry gives its `source`, `what` it compares, the published `reduction` of the cost (a fraction), the
+    `layout` of ours that corresponds, `ours`: the pairs [A, B] of the report's rows whose reduction 1 − A/B
+    of the cost per task is ours (the row keys of the tables: myopic-oracle, anticipatory-rl-guided,
+    gnn-augmented, gnn-augmented-bn, ...; [] where no row of ours does what it did), and how our `protocol`
+    differs. The reduction is on the sequences both rows hold."""
+    from planning.domain.folder import read_config
+
+    where = Path(ctx.domain) / "domain.toml"
+    entries = read_config(Path(ctx.domain)).get("published", [])
+    body = []
+    for i, e in enumerate(entries if isinstance(entries, list) else [entries]):
+        missing = [k for k in PUBLISHED_KEYS if k not in e] if isinstance(e, dict) else list(PUBLISHED_KEYS)
+        if missing:
+            raise DomainError(where, f"[[published]] entry {i + 1} lacks {', '.join(missing)}")
+        rows_ = results.get(e["layout"])
+        if rows_ is None:
+            raise DomainError(where, f"[[published]] entry {i + 1}: layout {e['layout']!r} is not reported")
+        cells = []
+        for pair in e["ours"]:
+            unknown = [k for k in pair if k not in ROW_KEYS]
+            if len(pair) != 2 or unknown:
+                raise DomainError(where, f"[[published]] entry {i + 1}: {pair} is not a pair of row keys")
+            a, b = pair
+            if a not in rows_ or b not in rows_:  # a GNN row without its models
+                cells.append(f"{a} vs {b}: not run")
+                continue
+            r = improvement(rows_[a], rows_[b])
+            ours = pct(r) if r is not None else "not run"
+            cells.append(f"{rows_[a].row.label} vs {rows_[b].row.label}: {ours}")
+        body.append(
+            [
+                e["source"],
+                e["what"],
+                f"{-100 * e['reduction']:+.1f}%".replace("-", "−"),
+                e["layout"],
+                "; ".join(cells) or "no counterpart",
+                e["protocol"],
+            ]
+        )
+    if not body:
+        return ["None declared (domain.toml [[published]])."]
+    return table(["source", "what", "published cost change", "our layout", "ours (improvement)", "protocol"], body)
+
+
 def sequences_note(ctx, layouts) -> list[str]:
     """One line per layout without its canonical sequences (no row can be played there yet)."""
     out = []
@@ -368,6 +481,23 @@ def report(layouts, ctx, command: str) -> str:
         "two-sided Wilcoxon signed-rank test. Across seeds: Welch's t and the 95% interval of the reduction.",
         "",
         *tables.statistics(results, COMPARISONS, thesis=False),
+        "",
+        "## Benchmarks and reward calibration",
+        "",
+        "Ratios of one run each (`planning.external.simulator_bench`: successors per second of our simulator, "
+        "one state at a time and batched, over unified-planning's SequentialSimulator on the same states, "
+        "which must agree; `oracles.planner_bench`: Fast Downward's seconds over ours on one sequence's tasks, "
+        "equal optimal costs checked) and the reward calibration (`experiments.calibrate`: R_goal = "
+        "(1 + margin) × D_max over the internal myopic oracle's plans).",
+        "",
+        *tools(ctx, layouts),
+        "",
+        "## Published figures beside ours",
+        "",
+        "The literature's figures on this domain (domain.toml `[[published]]`) and ours that correspond. "
+        "A positive improvement of ours is a cost reduction, as a published change of −x% is.",
+        "",
+        *published(ctx, results),
         "",
         "## Not applicable to this domain",
         "",

@@ -10,7 +10,7 @@ so that a file made from other domain content is recognised, and the error can s
 which file changed. The files are those a layout is compiled from: `domain.pddl`,
 `tasks.pddl`, the layout's problem and `domain.toml` (as parsed TOML, so a comment or
 a reformatting changes nothing, less the tool settings of `SETTINGS_TABLES`: [training],
-[search], [gnn], [streams], [preparation]); another layout's problem file is not part of it. The canonical
+[search], [gnn], [streams], [preparation], [[published]]); another layout's problem file is not part of it. The canonical
 sequences are checked task by task where they are used.
 """
 
@@ -30,14 +30,15 @@ def _digest(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
-SETTINGS_TABLES = ("training", "search", "gnn", "streams", "preparation")
+SETTINGS_TABLES = ("training", "search", "gnn", "streams", "preparation", "published")
 """domain.toml tables that configure a tool rather than define the world: the learner's and the
 search's defaults, the GNN baseline's candidate generator ([gnn.candidates]) and the task streams
 besides the i.i.d. one ([streams], `planning.world.streams`: a run on the i.i.d. stream does not
 depend on them, and a stream's canonical sequences are stored and checked task by task) and what the
 reports measure of preparation ([preparation], `planning.world.preparation`: read from plans). Runs record
 the values they used in their own configuration, so these tables are left out of the digest (an edit
-of them does not make every result and cache stale)."""
+of them does not make every result and cache stale); so are the literature's figures the domain's report
+sets beside ours ([[published]], `experiments.report.domain`)."""
 
 
 @lru_cache(maxsize=32)

@@ -60,6 +60,7 @@ KNOWN_TABLES = (
     "search",
     "gnn",
     "preparation",
+    "published",
 )
 """The top-level tables of domain.toml that some tool reads."""
 LAYOUT_KEYS = ("problem", "rooms", "tasks", "reset", "coordinates")

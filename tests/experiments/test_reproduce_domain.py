@@ -15,6 +15,7 @@ from experiments.report.data import Context, load_rows
 from planning import cli
 from planning.atomic import write_json
 from planning.domain.compiler import compile_domain
+from planning.errors import DomainError
 from planning.world.sequences import generate, sequence_dir
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -99,3 +100,64 @@ def test_layouts_are_the_folders(minimal_copy, monkeypatch, capsys):
     assert capsys.readouterr().err.strip() == "error: --layouts: 'two-room' names no known layout (known: grid)"
     assert run_reproduce(monkeypatch, "--domain", "minimal", "--discount-sweep", "--report-only") == 2
     assert "trains the restaurant's Table A.5 runs" in capsys.readouterr().err
+
+
+PUBLISHED = """
+[[published]]
+source = "A paper"
+what = "planning ahead against planning each task alone"
+reduction = 0.05
+layout = "grid"
+ours = [["clairvoyant-2", "myopic-oracle-internal"], ["anticipatory-rl-guided", "myopic-oracle"]]
+protocol = "theirs: other grids"
+
+[[published]]
+source = "Another"
+what = "preparing between tasks"
+reduction = 0.11
+layout = "grid"
+ours = []
+protocol = "no counterpart"
+"""
+
+
+def test_published_figures_are_set_beside_ours(minimal_copy, monkeypatch):
+    """domain.toml [[published]]: each figure beside the reduction 1 − A/B of the rows it names, computed from
+    their results files ("not run" where a row has none); a malformed entry is a one-line error naming the file."""
+    toml = minimal_copy / "minimal" / "domain.toml"
+    toml.write_text(toml.read_text() + PUBLISHED)
+    model = compile_domain(str(minimal_copy / "minimal"), "grid")
+    for rec in generate(model):
+        write_json(sequence_dir(model) / f"seq-{rec['id']:02d}.json", rec)
+    ctx = Context("minimal")
+    rows = [r for r in domain.rows(ctx, "grid") if r.key in ("myopic-oracle-internal", "clairvoyant-2")]
+    reproduce.run_missing(rows, ctx, ids=[0, 1], progress=False)
+    costs = {
+        k: json.loads(Path(f"results/minimal-{k}-grid.json").read_text())["cost_per_task"]
+        for k in ("myopic-oracle-internal", "clairvoyant-2")
+    }
+    saving = 1 - costs["clairvoyant-2"] / costs["myopic-oracle-internal"]  # 0 here: nothing to prepare
+    lines = domain.published(ctx, {"grid": load_rows(domain.rows(ctx, "grid"), ctx)})
+    first = next(x for x in lines if x.startswith("| A paper |"))
+    assert "| −5.0% | grid |" in first
+    assert f"Clairvoyant oracle (K = 2) vs Myopic oracle (ours): {100 * saving:+.1f}%" in first
+    assert "Anticipatory RL (guided) vs Myopic oracle (Fast Downward): not run" in first
+    assert "| −11.0% | grid | no counterpart | no counterpart |" in next(x for x in lines if x.startswith("| Another"))
+
+    toml.write_text(toml.read_text().replace('protocol = "no counterpart"\n', ""))
+    with pytest.raises(DomainError, match=r"domain\.toml.*\[\[published\]\] entry 2 lacks protocol"):
+        domain.published(ctx, {"grid": load_rows(domain.rows(ctx, "grid"), ctx)})
+    toml.write_text(toml.read_text().replace('"myopic-oracle"]]', '"myopic"]]'))
+    with pytest.raises(DomainError, match=r"entry 1: \['anticipatory-rl-guided', 'myopic'\] is not a pair of row keys"):
+        domain.published(ctx, {"grid": load_rows(domain.rows(ctx, "grid"), ctx)})
+
+
+def test_benchmarks_and_calibration_are_reported(minimal_copy):
+    """The simulator and planner benchmarks and the reward calibration, read from their default files; the
+    command of each one missing."""
+    ctx = Context("minimal")
+    write_json("results/minimal-bench-simulator-grid.json", {"ratio_single": 812.4, "ratio_batched": 4021.0})
+    write_json("results/minimal-bench-planner-grid.json", {"ratio_total": 12.34, "calls": 20, "equal_costs": True})
+    (line,) = [x for x in domain.tools(ctx, ["grid"]) if x.startswith("| grid |")]
+    assert line.startswith("| grid | 812× / 4,021× | 12.3× over 20 calls, equal costs | not run |")
+    assert line.endswith("| `python -m experiments.calibrate --domain minimal --layout grid` |")
