@@ -11,6 +11,14 @@ kind, bread spread (each a one-hot of a group of atoms), then four task fields
 atoms themselves are the features (70 two-room, 78 three-room), so no domain
 knowledge enters Python; the kind fields are static facts and drop out.
 
+With `task_features = "arguments+goal"` (domain.toml [training]; default "arguments", the
+thesis's) the task encoding also carries the task's *goal atoms*: a multi-hot over the atoms
+some binding of its goal requires true, then over those it requires false (columns no task
+uses are dropped). A domain whose tasks name an entry of a library (a job object whose static
+facts say which blocks go where, as the blockworld's) shows the learner nothing of the goal in
+its arguments; the goal atoms line up with the state's own bits, so what one task teaches
+carries over to the others.
+
 Actions. The factored labels of `planning.domain.factored` (Table A.1), plus one extra
 pseudo-action AUTO = n_actions: the internal auto_complete event. A task that
 already holds when it is drawn completes at zero cost with reward R_goal; AUTO
@@ -26,15 +34,32 @@ import numpy as np
 
 from planning.domain.batched import BatchedModel
 from planning.domain.factored import factored_actions
+from planning.errors import DomainError
 
 AUTO_TYPE = "auto_complete"
+TASK_FEATURES = ("arguments", "arguments+goal")
+"""The task encodings (module docstring): the thesis's one-hots of type and arguments, and those with the goal atoms."""
+
+
+def domain_task_features(model) -> str:
+    """The task encoding domain.toml [training] task_features names (default: arguments)."""
+    value = model.config.get("training", {}).get("task_features", "arguments")
+    if value not in TASK_FEATURES:
+        raise DomainError(
+            model.files["config"], f"[training] task_features {value!r} is not one of {', '.join(TASK_FEATURES)}"
+        )
+    return value
 
 
 class Encoding:
     """Observation features, validity masks and the factored action table of one compiled layout."""
 
-    def __init__(self, model):
+    def __init__(self, model, task_features: str | None = None):
+        """`task_features`: one of TASK_FEATURES; None: the domain's (`domain_task_features`)."""
         self.model = model
+        self.task_features = domain_task_features(model) if task_features is None else task_features
+        if self.task_features not in TASK_FEATURES:
+            raise DomainError("task_features", f"{self.task_features!r} is not one of {', '.join(TASK_FEATURES)}")
         self.bm = BatchedModel(model)
         self.factored = factored_actions(model)
         self.n_atoms = model.n_atoms
@@ -66,10 +91,25 @@ class Encoding:
             for k, objs in enumerate(slots):
                 feat[i, off + (objs.index(t.args[k]) if k < len(t.args) else len(objs))] = 1.0
                 off += len(objs) + 1
+        if self.task_features == "arguments+goal":
+            feat = np.concatenate([feat, self._goal_atoms(tasks)], axis=1)
         self.task_types, self.task_feat = types, feat
         self.task_prob = np.asarray(self.model.tasks.probabilities, dtype=np.float64)
         self.task_prob = self.task_prob / self.task_prob.sum()
         self.support = np.flatnonzero(self.task_prob > 0)  # the tasks V_AP averages over
+
+    def _goal_atoms(self, tasks) -> np.ndarray:
+        """(tasks, k) multi-hot of the atoms some binding of each task's goal needs true, then false; the k
+        columns are those some task uses, in atom order."""
+        n = self.model.n_atoms
+        hot = np.zeros((len(tasks), 2 * n), dtype=np.float32)
+        for i, t in enumerate(tasks):
+            pos = neg = 0
+            for b in t.bindings:
+                pos, neg = pos | b.pos, neg | b.neg
+            hot[i, :n] = [(pos >> a) & 1 for a in range(n)]
+            hot[i, n:] = [(neg >> a) & 1 for a in range(n)]
+        return hot[:, hot.any(axis=0)]
 
     def _task_goals(self) -> None:
         # Every binding of every task goal as packed masks, for batched satisfaction tests.
@@ -134,4 +174,5 @@ class Encoding:
             "obs_dim": self.obs_dim,
             "tasks": len(self.model.tasks),
             "vocab": [len(v) for v in self.vocab],
+            **({} if self.task_features == "arguments" else {"task_features": self.task_features}),
         }

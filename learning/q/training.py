@@ -42,7 +42,7 @@ import torch
 import torch.nn.functional as F
 from tqdm import tqdm
 
-from learning.encoding import Encoding
+from learning.encoding import TASK_FEATURES, Encoding
 from learning.reward import cost_scale, goal_reward, step_reward
 from planning import cli
 from planning.atomic import OutputLock, write_text
@@ -138,6 +138,9 @@ class Config:
     """empirical estimators: pseudo-counts of the uniform prior over the support (per row for markov-empirical)"""
     estimator_forget: float = 1.0
     """empirical estimators: every count decays by this factor per task seen (1: a plain average)"""
+    task_features: str = "arguments"
+    """the task's encoding (learning.encoding): arguments (one-hots of its type and arguments, the thesis's) or
+    arguments+goal (and its goal atoms: for tasks whose arguments do not show their goal)"""
     eval_every: int = 25_000
     """steps between greedy evaluations (best checkpoint selection)"""
     eval_tasks: int = 100
@@ -154,6 +157,7 @@ CHOICES = {
     "eps_schedule": ("time-constant", "reach"),
     "explore": ("factored", "uniform"),
     "target_bound": ("none", "return"),
+    "task_features": TASK_FEATURES,
 }
 LEGACY = {
     "eps_schedule": "reach",
@@ -164,6 +168,7 @@ LEGACY = {
     "estimator": "known",
     "estimator_prior": 1.0,
     "estimator_forget": 1.0,
+    "task_features": "arguments",
 }
 """What a checkpoint written before these settings existed was trained with."""
 
@@ -384,7 +389,7 @@ class Trainer:
         np.random.seed(cfg.seed)
         torch.manual_seed(cfg.seed)
         self.rng = np.random.default_rng(cfg.seed)
-        self.enc = Encoding(model)
+        self.enc = Encoding(model, cfg.task_features)
         self.type_of = self.enc.action_type
         self.identity = identity(model)  # the domain as it was when the run started, in every checkpoint
 

@@ -153,8 +153,8 @@ def value_function(payload: dict, model, path="checkpoint") -> ValueFunction:
     """The greedy value of a loaded checkpoint payload (float32 weights), checked against the layout and
     the domain (`check_domain`); `path` names it in errors."""
     check_domain(path, payload, model)
-    enc = Encoding(model)
     sig = payload.get("signature", {})
+    enc = Encoding(model, (payload.get("config") or {}).get("task_features") or sig.get("task_features", "arguments"))
     mine = enc.signature()
     if sig != mine:
         diff = [k for k in mine if sig.get(k) != mine[k]]
