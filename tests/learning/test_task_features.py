@@ -1,6 +1,7 @@
 """The learner's task encoding with the goal atoms (`task_features = "arguments+goal"`), on the blockworld, whose
 tasks name a job of a library and so show nothing of their goal in their arguments."""
 
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -47,7 +48,6 @@ def test_the_goal_atoms_are_the_jobs_wanted_placements(grid7):
     assert np.array_equal(enc.task_feat[:, : plain.task_feat.shape[1]], plain.task_feat)  # the thesis's part kept
     one = grid7.tasks.get("one-block(d_orange)")
     two = grid7.tasks.get("two-blocks(a_green_e_cyan)")
-    norm = lambda atoms: {a.replace(" ", "").lower() for a in atoms}
     assert goal_atoms(enc, one) == {"(at d orange)", "(hand-free)"}
     assert goal_atoms(enc, two) == {"(at a green)", "(at e cyan)", "(hand-free)"}
     # every task's goal columns differ: the encoding tells the twenty jobs apart by what they want
@@ -58,22 +58,39 @@ def test_the_goal_atoms_are_the_jobs_wanted_placements(grid7):
 
 
 def test_the_domain_names_its_encoding_and_a_checkpoint_keeps_its_own(grid7, tmp_path):
-    """domain.toml [training] task_features is the default of the trainer and of Encoding(model); a checkpoint
-    is read with the encoding it was trained with, whatever the domain says now."""
-    assert domain_defaults(grid7, "myopic")["task_features"] == "arguments+goal"
-    assert Encoding(grid7).task_features == "arguments+goal"
+    """domain.toml [training] task_features is the default of the trainer and of Encoding(model) (the bundled
+    blockworld keeps the thesis's); a checkpoint is read with the encoding it was trained with, whatever the
+    domain says now."""
+    assert Encoding(grid7).task_features == "arguments" and "task_features" not in domain_defaults(grid7, "myopic")
+    folder = tmp_path / "blockworld"
+    shutil.copytree(BLOCKWORLD, folder, ignore=shutil.ignore_patterns("sequences"))
+    toml = folder / "domain.toml"
+    toml.write_text(toml.read_text().replace("[training]\n", '[training]\ntask_features = "arguments+goal"\n', 1))
+    goal = compile_domain(folder, "grid7x7")
+    assert domain_defaults(goal, "myopic")["task_features"] == "arguments+goal"
+    assert Encoding(goal).task_features == "arguments+goal"
     for features in ("arguments", "arguments+goal"):
         enc = Encoding(grid7, features)
         payload = network_payload(build_network(enc, 16), enc, {"config": {"task_features": features}})
         path = save_checkpoint(tmp_path / f"{features}.pt", payload)
-        vf = value_function(read_checkpoint(path), grid7, path)
+        vf = value_function(read_checkpoint(path), goal, path)
         assert vf.enc.task_features == features and vf.enc.obs_dim == enc.obs_dim
     with pytest.raises(DomainError, match="task_features: 'goal' is not one of arguments, arguments"):
         Encoding(grid7, "goal")
+    bad = shutil.copytree(folder, tmp_path / "bad")  # another folder: compiled models are cached by folder
+    (bad / "domain.toml").write_text(toml.read_text().replace('"arguments+goal"', '"goals"'))
+    with pytest.raises(DomainError, match=r"domain\.toml: \[training\] task_features 'goals' is not one of"):
+        Encoding(compile_domain(bad, "grid7x7"))
 
 
 def test_a_run_resumes_only_under_its_own_task_encoding(grid7, tmp_path):
-    values = {**domain_defaults(grid7, "myopic"), "steps": 30, "learning_starts": 10, "demo_tasks": 2}
+    values = {
+        **domain_defaults(grid7, "myopic"),
+        "task_features": "arguments+goal",
+        "steps": 30,
+        "learning_starts": 10,
+        "demo_tasks": 2,
+    }
     values.update(eval_every=10**9, checkpoint_every=30, log_every=30, goal_reward=30.0, hidden=16)
     cfg = Config(domain=BLOCKWORLD, layout="grid7x7", horizon="myopic", out=str(tmp_path / "run"), **values)
     Trainer(cfg, progress=False).train()
