@@ -19,8 +19,9 @@ $(STAMP): pyproject.toml
 run: $(STAMP)
 	$(PY) -m experiments.demo --layout three-room --sequence 0
 
+# The suite on every core (pytest-xdist; a file's tests stay on one worker, so its module fixtures are built once).
 test: $(STAMP)
-	$(PY) -m pytest
+	$(PY) -m pytest -n auto --dist loadfile
 
 test-slow: $(STAMP)
 	$(PY) -m pytest -m slow
