@@ -331,11 +331,16 @@ def tools(ctx, layouts) -> list[str]:
                 ("--out", f"results/{name}-bench-simulator-{layout}.json"),
             ),
             "planner": (results_name(name, "bench-planner", layout), "oracles.planner_bench", ()),
+            "labelling": (
+                f"results/{name}-bench-labelling-{layout}.json",
+                "oracles.labelling_bench",
+                ("--states", "5", "--out", f"results/{name}-bench-labelling-{layout}.json"),
+            ),
             "calibration": (str(calibration_path(ctx.model(layout))), "experiments.calibrate", ()),
         }
         got = {k: read_finished(path) for k, (path, _, _) in files.items()}
         todo = [f"`python -m {mod} {' '.join((*d, *extra))}`" for k, (_, mod, extra) in files.items() if got[k] is None]
-        sim, plan, cal = got["sim"], got["planner"], got["calibration"]
+        sim, plan, lab, cal = got["sim"], got["planner"], got["labelling"], got["calibration"]
         body.append(
             [
                 layout,
@@ -346,6 +351,13 @@ def tools(ctx, layouts) -> list[str]:
                 )
                 if plan
                 else "not run",
+                (
+                    f"{num(lab['fast_downward']['seconds'] / lab['ours']['pdb']['seconds'], 1)}× over "
+                    f"{lab['states']} states × {lab['tasks']} tasks, {'equal' if lab['equal_costs'] else '**unequal**'} "
+                    "costs"
+                )
+                if lab and "pdb" in lab.get("ours", {}) and "fast_downward" in lab
+                else "not run",
                 f"{num(cal['d_max'], 2)}, {num(cal['r_goal'], 2)} (γ = {cal['gamma']})" if cal else "not run",
                 "; ".join(todo) or "—",
             ]
@@ -355,6 +367,7 @@ def tools(ctx, layouts) -> list[str]:
             "layout",
             "simulator vs unified-planning, single / batched",
             "our A* vs Fast Downward",
+            "labelling oracle vs Fast Downward",
             "calibration D_max, R_goal",
             "missing: commands",
         ],
@@ -487,7 +500,8 @@ def report(layouts, ctx, command: str) -> str:
         "Ratios of one run each (`planning.external.simulator_bench`: successors per second of our simulator, "
         "one state at a time and batched, over unified-planning's SequentialSimulator on the same states, "
         "which must agree; `oracles.planner_bench`: Fast Downward's seconds over ours on one sequence's tasks, "
-        "equal optimal costs checked) and the reward calibration (`experiments.calibrate`: R_goal = "
+        "equal optimal costs checked; `oracles.labelling_bench`: the same for every task's cost from a state, one "
+        "multi-goal search against a Fast Downward call per task) and the reward calibration (`experiments.calibrate`: R_goal = "
         "(1 + margin) × D_max over the internal myopic oracle's plans).",
         "",
         *tools(ctx, layouts),

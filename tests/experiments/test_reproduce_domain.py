@@ -159,5 +159,20 @@ def test_benchmarks_and_calibration_are_reported(minimal_copy):
     write_json("results/minimal-bench-simulator-grid.json", {"ratio_single": 812.4, "ratio_batched": 4021.0})
     write_json("results/minimal-bench-planner-grid.json", {"ratio_total": 12.34, "calls": 20, "equal_costs": True})
     (line,) = [x for x in domain.tools(ctx, ["grid"]) if x.startswith("| grid |")]
-    assert line.startswith("| grid | 812× / 4,021× | 12.3× over 20 calls, equal costs | not run |")
-    assert line.endswith("| `python -m experiments.calibrate --domain minimal --layout grid` |")
+    assert line.startswith("| grid | 812× / 4,021× | 12.3× over 20 calls, equal costs | not run | not run |")
+    assert line.endswith(
+        "| `python -m oracles.labelling_bench --domain minimal --layout grid --states 5 --out "
+        "results/minimal-bench-labelling-grid.json`; `python -m experiments.calibrate --domain minimal --layout grid` |"
+    )
+    write_json(
+        "results/minimal-bench-labelling-grid.json",
+        {
+            "states": 5,
+            "tasks": 3,
+            "equal_costs": True,
+            "ours": {"pdb": {"seconds": 0.5}},
+            "fast_downward": {"seconds": 14.0},
+        },
+    )
+    (line,) = [x for x in domain.tools(ctx, ["grid"]) if x.startswith("| grid |")]
+    assert "| 28.0× over 5 states × 3 tasks, equal costs | not run |" in line
