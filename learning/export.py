@@ -33,7 +33,8 @@
 - A GNN dataset (megabytes of graphs) is committed as its key figures only, read from its
   meta.json: the settings it was built with, its states per kind (faithful, prepared), the
   exact C_AP labels' spread, and what labelling them cost. Default:
-  results/dataset-gnn-<faithful|augmented>-<layout>.json; there is no checkpoint.
+  results/dataset-gnn-<faithful|augmented>-<layout>.json (for another domain than the restaurant
+  the domain's name first, as for checkpoints); there is no checkpoint.
 
 Exporting never loses what is committed. Everything is read, computed and checked before
 anything is written (a run without its metrics.jsonl leaves the committed checkpoint as it
@@ -281,12 +282,17 @@ def default_names(run: Path, gnn: bool) -> tuple[str, str]:
         for field in ("horizon", "layout", "seed", *(f for f in named if f in cfg)):
             file_name(cfg.get(field), best, f"config.{field}")
         name = f"rl-{rl_name(cfg)}"
-    domain = p.get("domain") or (p.get("signature") or {}).get("domain")
-    prefix = "" if domain in (None, "restaurant") else f"{file_name(domain, best, 'domain')}-"
+    prefix = domain_prefix(p.get("domain") or (p.get("signature") or {}).get("domain"), best)
     return (
         str(file_in("checkpoints", f"{prefix}{name}.pt", best, "its settings")),
         str(file_in("results", f"{prefix}training-{name.removeprefix('rl-')}.json", best, "its settings")),
     )
+
+
+def domain_prefix(domain: str | None, where) -> str:
+    """What an exported file's name starts with: nothing for the restaurant (its committed names stay) or a
+    file that names no domain, else the domain's PDDL name and a dash."""
+    return "" if domain in (None, "restaurant") else f"{file_name(domain, where, 'domain')}-"
 
 
 def rl_name(cfg: dict, varied: str = "") -> str:
@@ -549,7 +555,10 @@ def main() -> None:
             with exporting(folder, "dataset"):
                 figs = dataset_figures(folder)
                 meta = folder / "meta.json"
-                name = f"dataset-gnn-{figs['variant']}-{file_name(figs['layout'], meta, 'layout')}.json"
+                name = (
+                    f"{domain_prefix(figs.get('domain'), meta)}dataset-gnn-{figs['variant']}-"
+                    f"{file_name(figs['layout'], meta, 'layout')}.json"
+                )
                 figures = Path(args.figures or file_in("results", name, meta, "layout"))
                 cli.check_writable(figures)
                 written = (

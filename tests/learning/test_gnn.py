@@ -342,7 +342,7 @@ def test_value_rank_scores_a_gnn_on_its_validation_split_only(minimal, encoder, 
     assert row["all"]["states"] == len(split(n, 0)[1]) < n
 
 
-def test_dataset_export_writes_its_key_figures(dataset, tmp_path, capsys):
+def test_dataset_export_writes_its_key_figures(dataset, tmp_path, capsys, monkeypatch):
     """A dataset folder is committed as its key figures: states per kind and the labels' spread, from meta.json."""
     import sys
 
@@ -362,3 +362,8 @@ def test_dataset_export_writes_its_key_figures(dataset, tmp_path, capsys):
     with pytest.raises(SystemExit) as e:  # a dataset has no checkpoint to write
         export.main()
     assert e.value.code != 0
+    monkeypatch.chdir(tmp_path)  # the default name: a domain other than the restaurant comes first
+    sys.argv = ["export", str(dataset)]
+    export.main()
+    default = json.loads((tmp_path / "results" / "minimal-dataset-gnn-faithful-grid.json").read_text())
+    assert {k: v for k, v in default.items() if k != "provenance"} == {k: v for k, v in d.items() if k != "provenance"}
