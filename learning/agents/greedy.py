@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from planning.errors import DomainError
@@ -23,8 +24,14 @@ def checkpoint_config(path) -> dict:
 
 def checkpoint_run_name(agent: str, checkpoint, prefix: str = "rl-") -> str:
     """A default results name that names the checkpoint: rl-greedy + rl-anticipatory-two-room-seed0.pt ->
-    rl-greedy-anticipatory-two-room-seed0 (the checkpoint's own `prefix` dropped)."""
-    return f"{agent}-{Path(checkpoint).stem.removeprefix(prefix)}"
+    rl-greedy-anticipatory-two-room-seed0 (the checkpoint's own `prefix` dropped, and the domain's name that
+    `learning.export` puts before it for a domain other than the restaurant: blockworld-rl-myopic-grid7x7-seed0.pt
+    -> rl-greedy-myopic-grid7x7-seed0, to which the results file's name adds the domain once)."""
+    stem = Path(checkpoint).stem
+    if stem.startswith(prefix):
+        return f"{agent}-{stem.removeprefix(prefix)}"
+    exported = re.fullmatch(rf"(.+?)-{re.escape(prefix)}(.+)", stem)
+    return f"{agent}-{exported.group(2) if exported else stem}"
 
 
 class GreedyValuePolicy(Policy):

@@ -176,3 +176,30 @@ def test_benchmarks_and_calibration_are_reported(minimal_copy):
     )
     (line,) = [x for x in domain.tools(ctx, ["grid"]) if x.startswith("| grid |")]
     assert "| 28.0× over 5 states × 3 tasks, equal costs | not run |" in line
+
+
+def test_an_exported_checkpoint_plays_into_the_file_the_report_reads(minimal_copy):
+    """The checkpoints learning.export names for a domain other than the restaurant (its name first) give the
+    agents' default results names the report's rows read, the domain's name once."""
+    from learning.agents.greedy import checkpoint_run_name
+    from planning.world.results import results_file
+
+    ctx = Context("minimal")
+    assert (
+        checkpoint_run_name("rl-greedy", "checkpoints/minimal-rl-myopic-grid-seed0.pt") == "rl-greedy-myopic-grid-seed0"
+    )
+    assert (
+        checkpoint_run_name("rl-greedy", "checkpoints/rl-myopic-two-room-seed0.pt") == "rl-greedy-myopic-two-room-seed0"
+    )
+    assert checkpoint_run_name("rl-greedy", "q.pt") == "rl-greedy-q"
+    for agent in ("rl-greedy", "rl-guided"):
+        run = next(
+            r for row in domain.rows(ctx, "grid") for r in row.runs if r.agent == agent and "anticipatory" in r.out
+        )
+        name = checkpoint_run_name(agent, run.checkpoint)
+        assert (
+            results_file(name, "minimal", "grid") == run.out == f"results/minimal-{agent}-anticipatory-grid-seed0.json"
+        )
+    assert checkpoint_run_name("gnn-native", "checkpoints/my-domain-gnn-augmented-grid-seed4.pt", "gnn-") == (
+        "gnn-native-augmented-grid-seed4"
+    )
