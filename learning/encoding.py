@@ -16,8 +16,9 @@ thesis's) the task encoding also carries the task's *goal atoms*: a multi-hot ov
 some binding of its goal requires true, then over those it requires false (columns no task
 uses are dropped). A domain whose tasks name an entry of a library (a job object whose static
 facts say which blocks go where, as the blockworld's) shows the learner nothing of the goal in
-its arguments; the goal atoms line up with the state's own bits, so what one task teaches
-carries over to the others.
+its arguments; the goal atoms line up with the state's own bits. On the blockworld a paired
+check found no difference in 30,000 steps (docs/domains.md), so the bundled domains keep the
+thesis's encoding.
 
 Actions. The factored labels of `planning.domain.factored` (Table A.1), plus one extra
 pseudo-action AUTO = n_actions: the internal auto_complete event. A task that
