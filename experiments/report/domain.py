@@ -322,21 +322,15 @@ def tools(ctx, layouts) -> list[str]:
 
     folder, body = ctx.domain, []
     for layout in layouts:
-        name = ctx.model(layout).name
+        model = ctx.model(layout)
         d = ("--domain", folder, "--layout", layout)
-        files = {
-            "sim": (
-                f"results/{name}-bench-simulator-{layout}.json",
-                "planning.external.simulator_bench",
-                ("--out", f"results/{name}-bench-simulator-{layout}.json"),
-            ),
-            "planner": (results_name(name, "bench-planner", layout), "oracles.planner_bench", ()),
-            "labelling": (
-                f"results/{name}-bench-labelling-{layout}.json",
-                "oracles.labelling_bench",
-                ("--states", "5", "--out", f"results/{name}-bench-labelling-{layout}.json"),
-            ),
-            "calibration": (str(calibration_path(ctx.model(layout))), "experiments.calibrate", ()),
+        sim_out, lab_out = (f"results/{model.name}-bench-{kind}-{layout}.json" for kind in ("simulator", "labelling"))
+        files = {  # (file, module, options beyond --domain and --layout): the simulator and labelling benches name
+            # no default file, so the report names theirs
+            "sim": (sim_out, "planning.external.simulator_bench", ("--out", sim_out)),
+            "planner": (results_name(model.name, "bench-planner", layout), "oracles.planner_bench", ()),
+            "labelling": (lab_out, "oracles.labelling_bench", ("--states", "5", "--out", lab_out)),
+            "calibration": (str(calibration_path(model)), "experiments.calibrate", ()),
         }
         got = {k: read_finished(path) for k, (path, _, _) in files.items()}
         todo = [f"`python -m {mod} {' '.join((*d, *extra))}`" for k, (_, mod, extra) in files.items() if got[k] is None]

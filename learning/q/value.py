@@ -154,7 +154,7 @@ def value_function(payload: dict, model, path="checkpoint") -> ValueFunction:
     the domain (`check_domain`); `path` names it in errors."""
     check_domain(path, payload, model)
     sig = payload.get("signature", {})
-    enc = Encoding(model, (payload.get("config") or {}).get("task_features") or sig.get("task_features", "arguments"))
+    enc = Encoding(model, sig.get("task_features", "arguments"))  # the encoding it was trained with
     mine = enc.signature()
     if sig != mine:
         diff = [k for k in mine if sig.get(k) != mine[k]]

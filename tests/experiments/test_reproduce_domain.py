@@ -137,6 +137,7 @@ def test_published_figures_are_set_beside_ours(minimal_copy, monkeypatch):
         for k in ("myopic-oracle-internal", "clairvoyant-2")
     }
     saving = 1 - costs["clairvoyant-2"] / costs["myopic-oracle-internal"]  # 0 here: nothing to prepare
+    assert {r.key for r in domain.rows(ctx, "grid")} <= set(domain.ROW_KEYS)  # the keys [[published]] may name
     lines = domain.published(ctx, {"grid": load_rows(domain.rows(ctx, "grid"), ctx)})
     first = next(x for x in lines if x.startswith("| A paper |"))
     assert "| −5.0% | grid |" in first
