@@ -18,7 +18,6 @@ as optimal); our oracle is optimal, so our D_max is expected to differ.
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
@@ -29,7 +28,7 @@ from oracles.rollouts import cache_path, cached_rollout, load_records, replay
 from planning import cli
 from planning.atomic import OutputLock, write_json
 from planning.domain.compiler import compile_domain
-from planning.domain.identity import identity, mismatch
+from planning.domain.identity import identity, refuse_other
 from planning.errors import DomainError
 
 # Table A.2 / §5.2.4; the thesis gives D_max only for the two-room restaurant.
@@ -121,24 +120,6 @@ def report(result: dict) -> str:
     return "\n".join(lines)
 
 
-def refuse_other(out, model, settings: dict) -> None:
-    """A one-line error if the calibration file at `out` was made for another domain, layout, content or settings."""
-    try:
-        saved = json.loads(Path(out).read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise DomainError(out, f"corrupt calibration ({type(e).__name__}); delete it or pass --force") from None
-    if not isinstance(saved, dict):
-        raise DomainError(out, "corrupt calibration (not a JSON object); delete it or pass --force")
-    diff = mismatch(saved, model)
-    if diff is None and saved.get("layout") != model.layout:
-        diff = f"layout {saved.get('layout')!r}, not {model.layout!r}"
-    for key, value in settings.items():
-        if diff is None and key in saved and saved[key] != value:
-            diff = f"{key} {saved[key]!r}, not {value!r}"
-    if diff is not None:
-        raise DomainError(out, f"a calibration made with {diff}; pass --force to replace it, or --out another file")
-
-
 def main() -> None:
     p = cli.parser(__doc__.splitlines()[0], seed=True)
     p.add_argument("--tasks", type=int, default=2000, help="tasks of the myopic rollout (default: %(default)s)")
@@ -173,7 +154,7 @@ def main() -> None:
         "tasks_requested": args.tasks,
     }
     if Path(out).is_file() and not args.force:
-        refuse_other(out, model, settings)
+        refuse_other(out, model, settings, "calibration")
     start = time.perf_counter()
     if args.cached_only:
         records = stored_records(model, args.seed, args.tasks, args.planner, args.cache_dir)

@@ -104,7 +104,7 @@ LEARNING_LEVELS = [
     {"gnn"},
     {"values"},
     {"agents"},
-    {"dqn", "gnn_dataset", "gnn_train", "export"},
+    {"dqn", "gnn_dataset", "gnn_train", "export", "capacity"},
 ]
 
 

@@ -22,6 +22,8 @@ import tomllib
 from functools import lru_cache
 from pathlib import Path
 
+from planning.errors import DomainError
+
 FILE_DIGITS = 16
 """Hex digits kept of each file's sha256 (enough to name the file that changed)."""
 
@@ -85,3 +87,22 @@ def mismatch(saved: dict, model) -> str | None:
     old, new = saved.get("domain_files") or {}, mine["domain_files"]
     changed = sorted(n for n in set(old) | set(new) if old.get(n) != new.get(n))
     return f"other content of domain {model.name!r} (changed: {', '.join(changed) or 'unknown files'})"
+
+
+def refuse_other(out, model, settings: dict, what: str) -> None:
+    """A one-line error if the results file at `out` (`what`: "calibration") was made for another domain,
+    layout, domain content or settings (`settings`: each key as the new file would record it)."""
+    try:
+        saved = json.loads(Path(out).read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise DomainError(out, f"corrupt {what} ({type(e).__name__}); delete it or pass --force") from None
+    if not isinstance(saved, dict):
+        raise DomainError(out, f"corrupt {what} (not a JSON object); delete it or pass --force")
+    diff = mismatch(saved, model)
+    if diff is None and saved.get("layout") != model.layout:
+        diff = f"layout {saved.get('layout')!r}, not {model.layout!r}"
+    for key, value in settings.items():
+        if diff is None and key in saved and saved[key] != value:
+            diff = f"{key} {saved[key]!r}, not {value!r}"
+    if diff is not None:
+        raise DomainError(out, f"a {what} made with {diff}; pass --force to replace it, or --out another file")
