@@ -67,6 +67,8 @@ class Settings:
     """discount per action"""
     task_features: str = "arguments"
     """the task encoding (learning.encoding)"""
+    goal_reward: float | None = None
+    """completion reward R_goal (RL units); None: the layout's, as the training's (learning.reward.goal_reward)"""
     seed: int = 0
     """seeds the visits, the held-out split and the network"""
 
@@ -74,9 +76,9 @@ class Settings:
 class Labeller:
     """Q* of every applicable action of visited (state, task) pairs; V* memoised per pair."""
 
-    def __init__(self, model, gamma: float, time_limit: float = 60.0):
+    def __init__(self, model, gamma: float, r_goal: float, time_limit: float = 60.0):
         self.model, self.bm, self.gamma, self.time_limit = model, BatchedModel(model), gamma, time_limit
-        self.scale, self.r_goal = cost_scale(model), goal_reward(model)
+        self.scale, self.r_goal = cost_scale(model), r_goal
         self.memo: dict = {}
 
     def plan(self, state: int, task) -> tuple[float, list]:
@@ -212,7 +214,7 @@ def main() -> None:
     if Path(out).is_file() and not args.force:
         refuse_other(out, model, {"settings": asdict(s)}, "capacity check")
     start = time.perf_counter()
-    labeller = Labeller(model, s.gamma)
+    labeller = Labeller(model, s.gamma, goal_reward(model) if s.goal_reward is None else s.goal_reward)
     data = labeller.visit(s.states, s.seed, s.detour, s.max_actions)
     label_s = time.perf_counter() - start
     print(f"{len(data['q'])} labelled actions on {s.states} (state, task) pairs in {label_s:.0f} s", flush=True)
