@@ -369,6 +369,67 @@ def tools(ctx, layouts) -> list[str]:
     )
 
 
+CAPACITY_TEXT = (
+    "`learning.capacity` fits the thesis's network, by regression and with the training's optimiser, to the "
+    "optimal myopic Q (exact A* labels on the states of a persistent stream visited with random detours), then "
+    "plays its greedy policy on the training's evaluation stream (100 tasks). A network that cannot fit Q* "
+    "from exact labels will not learn it from rewards; one that fits its training states but not held-out ones "
+    "needs more experience than the labels hold, or an encoding that generalises. Every check under "
+    "`results/` is listed, this domain's first: the other domains' rows are the reference."
+)
+
+
+def capacity(ctx, layouts) -> list[str]:
+    """Every capacity check under results/ (learning.capacity), this domain's first; the command of each of
+    this domain's layouts without its default check."""
+    from learning.export import domain_prefix
+
+    name = ctx.model(layouts[0]).name
+    body = []
+    for path in sorted(Path("results").glob("*capacity-*.json")):
+        r = read_finished(path)
+        if r is None or not r.get("fit"):
+            continue
+        s, last, g = r["settings"], r["fit"][-1], r["greedy"]
+        body.append(
+            (
+                r["domain"] != name,
+                [
+                    r["domain"],
+                    r["layout"],
+                    f"{s['states']} / {s['epochs']} / {s['hidden']} / {s['task_features']}",
+                    f"{num(100 * last['train_best_optimal'], 1)} / {num(100 * last['held_out_best_optimal'], 1)}",
+                    num(last["held_out_l1"], 2),
+                    num(100 * g["success_rate"], 0),
+                    f"`{path}`",
+                ],
+            )
+        )
+    rows_ = [row for _, row in sorted(body, key=lambda b: b[0])]
+    todo = [
+        f"- not run: `python -m learning.capacity --domain {ctx.domain} --layout {layout}`"
+        for layout in layouts
+        if read_finished(f"results/{domain_prefix(name, ctx.domain)}capacity-{layout}.json") is None
+    ]
+    if not rows_:
+        return todo or ["No results yet."]
+    return [
+        *table(
+            [
+                "domain",
+                "layout",
+                "states / epochs / width / task encoding",
+                "best action optimal %, training / held out",
+                "held-out L1 (RL units)",
+                "greedy success %",
+                "file",
+            ],
+            rows_,
+        ),
+        *([""] + todo if todo else []),
+    ]
+
+
 PUBLISHED_KEYS = ("source", "what", "reduction", "layout", "ours", "protocol")
 """The keys of a domain.toml [[published]] entry (the module `published`)."""
 
@@ -471,6 +532,12 @@ def report(layouts, ctx, command: str) -> str:
         "## The learned values, greedy and guided (Table A.4's columns)",
         "",
         *learned(results),
+        "",
+        "## Can the network hold the values? (a supervised check)",
+        "",
+        CAPACITY_TEXT,
+        "",
+        *capacity(ctx, layouts),
         "",
         "## Held-out seven against development three",
         "",

@@ -179,6 +179,32 @@ def test_benchmarks_and_calibration_are_reported(minimal_copy):
     assert "| 28.0× over 5 states × 3 tasks, equal costs | not run |" in line
 
 
+def test_capacity_checks_are_reported_this_domains_first(minimal_copy):
+    """Every capacity check under results/ is a row, this domain's before the other domains' (the reference);
+    the command of the layout without its default file."""
+    ctx = Context("minimal")
+    assert domain.capacity(ctx, ["grid"]) == ["- not run: `python -m learning.capacity --domain minimal --layout grid`"]
+
+    def check(domain_name, layout, held, success):
+        return {
+            "domain": domain_name,
+            "layout": layout,
+            "settings": {"states": 3000, "epochs": 150, "hidden": 256, "task_features": "arguments"},
+            "fit": [{"epoch": 150, "train_best_optimal": 0.9, "held_out_best_optimal": held, "held_out_l1": 1.234}],
+            "greedy": {"success_rate": success},
+        }
+
+    write_json("results/capacity-two-room.json", check("restaurant", "two-room", 0.875, 0.45))
+    write_json("results/minimal-capacity-grid.json", check("minimal", "grid", 0.345, 0.03))
+    lines = domain.capacity(ctx, ["grid"])
+    rows = [x for x in lines if x.startswith("| minimal") or x.startswith("| restaurant")]
+    assert rows == [
+        "| minimal | grid | 3000 / 150 / 256 / arguments | 90.0 / 34.5 | 1.23 | 3 | `results/minimal-capacity-grid.json` |",
+        "| restaurant | two-room | 3000 / 150 / 256 / arguments | 90.0 / 87.5 | 1.23 | 45 | `results/capacity-two-room.json` |",
+    ]
+    assert not any(x.startswith("- not run") for x in lines)
+
+
 def test_an_exported_checkpoint_plays_into_the_file_the_report_reads(minimal_copy):
     """The checkpoints learning.export names for a domain other than the restaurant (its name first) give the
     agents' default results names the report's rows read, the domain's name once."""
