@@ -20,6 +20,16 @@ its arguments; the goal atoms line up with the state's own bits. On the blockwor
 check found no difference in 30,000 steps (docs/domains.md), so the bundled domains keep the
 thesis's encoding.
 
+With `task_features = "arguments+objects"` the observation also carries the state *seen from the
+goal's objects*: for each object every binding of the task's goal names (its slot: first, second,
+... in atom order), the state's atoms that mention it, keyed by (slot, predicate, the object's
+argument position, the other arguments). For the blockworld's `two-blocks(d_orange_e_green)` the
+slots are d, orange, e, green, and the features say where d is, whether it is held, what stands
+on orange, whether the robot is there, and the same for e and green: the join of "the job's block"
+and "where blocks are" that the flat vector leaves the network to learn for each job apart. The
+features depend on the state and the task together (`Encoding.paired`): the networks' split first
+layer adds their term per (state, task) pair (`FactoredQNet.first_layer_pairs`).
+
 Actions. The factored labels of `planning.domain.factored` (Table A.1), plus one extra
 pseudo-action AUTO = n_actions: the internal auto_complete event. A task that
 already holds when it is drawn completes at zero cost with reward R_goal; AUTO
@@ -38,8 +48,9 @@ from planning.domain.factored import factored_actions
 from planning.errors import DomainError
 
 AUTO_TYPE = "auto_complete"
-TASK_FEATURES = ("arguments", "arguments+goal")
-"""The task encodings (module docstring): the thesis's one-hots of type and arguments, and those with the goal atoms."""
+TASK_FEATURES = ("arguments", "arguments+goal", "arguments+objects")
+"""The task encodings (module docstring): the thesis's one-hots of type and arguments, those with the goal atoms,
+and those with the state seen from the goal's objects."""
 
 
 def domain_task_features(model) -> str:
@@ -76,7 +87,8 @@ class Encoding:
         self.type_names = self.vocab[0]
         self._task_features()
         self._task_goals()
-        self.obs_dim = self.n_atoms + self.task_feat.shape[1]
+        self._object_view()
+        self.obs_dim = self.n_atoms + self.task_feat.shape[1] + self.object_map.shape[2]
 
     # ---- task encoding ---------------------------------------------------
     def _task_features(self) -> None:
@@ -112,6 +124,40 @@ class Encoding:
             hot[i, n:] = [(neg >> a) & 1 for a in range(n)]
         return hot[:, hot.any(axis=0)]
 
+    def _object_view(self) -> None:
+        """object_map (tasks, atoms, k): which of the k goal-object features each state atom sets, per task
+        (k = 0 unless task_features is arguments+objects)."""
+        model, keys, hits = self.model, {}, []
+        if self.task_features == "arguments+objects":
+            mentions = {}  # object -> [(atom, argument position)]
+            for i, atom in enumerate(model.atoms[: model.n_atoms]):
+                for pos, obj in enumerate(atom[1:]):
+                    mentions.setdefault(obj, []).append((i, pos))
+            for t in model.tasks:
+                named = None
+                for b in t.bindings:
+                    atoms = [model.atoms[i] for i in range(model.n_atoms) if (b.pos | b.neg) >> i & 1]
+                    objs = list(dict.fromkeys(o for atom in atoms for o in atom[1:]))
+                    named = objs if named is None else [o for o in named if o in objs]
+                for slot, obj in enumerate(named or []):
+                    for i, pos in mentions.get(obj, []):
+                        atom = model.atoms[i]
+                        key = (slot, atom[0], pos, atom[1:][:pos] + atom[1:][pos + 1 :])
+                        hits.append((t.index, i, keys.setdefault(key, len(keys))))
+        self.object_map = np.zeros((len(model.tasks), model.n_atoms, len(keys)), dtype=np.float32)
+        for t, i, k in hits:
+            self.object_map[t, i, k] = 1.0
+        self.object_keys = list(keys)
+
+    def object_features(self, bits: np.ndarray, tasks: np.ndarray) -> np.ndarray:
+        """(N, k) float32 goal-object features of (state bits, task index) rows (`_object_view`)."""
+        out = np.zeros((len(bits), self.object_map.shape[2]), dtype=np.float32)
+        if out.shape[1]:
+            for t in np.unique(tasks):
+                rows = tasks == t
+                out[rows] = bits[rows] @ self.object_map[t]
+        return out
+
     def _task_goals(self) -> None:
         # Every binding of every task goal as packed masks, for batched satisfaction tests.
         pos, neg, owner = [], [], []
@@ -135,8 +181,18 @@ class Encoding:
 
     def observe(self, packed: np.ndarray, tasks: np.ndarray) -> np.ndarray:
         """(N, obs_dim) float32 observations of (state, task index) pairs."""
-        bits = self.bm.to_bits(packed).astype(np.float32)
-        return np.concatenate([bits, self.task_feat[np.asarray(tasks, dtype=np.int64)]], axis=1)
+        return self.observe_bits(self.bm.to_bits(packed), tasks)
+
+    def observe_bits(self, bits: np.ndarray, tasks: np.ndarray) -> np.ndarray:
+        """`observe` of states given as their (N, atoms) bits."""
+        bits, tasks = bits.astype(np.float32), np.asarray(tasks, dtype=np.int64)
+        return np.concatenate([bits, self.task_feat[tasks], self.object_features(bits, tasks)], axis=1)
+
+    @property
+    def paired(self) -> bool:
+        """Whether the observation has features of the (state, task) pair (goal-object features), beyond the
+        state's bits and the task's own encoding."""
+        return self.object_map.shape[2] > 0
 
     def satisfied_all(self, packed: np.ndarray) -> np.ndarray:
         """(N, tasks) bool: which task goals hold in each state."""

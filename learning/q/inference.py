@@ -173,7 +173,10 @@ class BatchedQ:
         base[: nb * 8, hid + 1 :] = (P - Nn).T
         base[c, hid + 1 :] = 1.0 - P.sum(1)
         self.l1_base = f(base)
-        self.task_part = enc.task_feat.astype(np.float64) @ w1[n:]  # (tasks, hidden)
+        nt = n + enc.task_feat.shape[1]
+        self.task_part = enc.task_feat.astype(np.float64) @ w1[n:nt]  # (tasks, hidden)
+        # goal-object features (Encoding.paired): each task's own term on the atoms' rows of layer 1
+        self.object_part = np.einsum("tak,kh->tah", enc.object_map, w1[nt:]) if enc.paired else None
         self.l1_task: dict = {}  # task -> its layer-1 matrix
         self.t0, self.g0 = hid + 1, hid + 1 + self.n_var  # test columns: variants, goals
         aug = lambda w, b: np.vstack([w, b[None]])  # the constant's row: the bias
@@ -273,6 +276,8 @@ class BatchedQ:
         if w is None:
             w = np.concatenate([self.l1_base[:, : self.g0], self.l1_base[:, self.goal_cols[task]]], axis=1)
             w[-8, : self.hid] += self.task_part[task]
+            if self.object_part is not None:
+                w[: self.enc.n_atoms, : self.hid] += self.object_part[task]
             w = self.l1_task[task] = np.ascontiguousarray(w, dtype=np.float32)
         return w
 
@@ -316,6 +321,8 @@ class BatchedQ:
         """Σ_τ P(τ) max_a Q(s, τ, a) over the task support, per state."""
         if len(states) == 0:
             return np.zeros(0)
+        if self.object_part is not None:  # layer 1 differs per task on the atoms' rows too: a task at a time
+            return np.stack([self.q_max(states, int(t)) for t in self.support], axis=1) @ self.prob
         a = self.features(states) @ self.l1_base  # no task part yet
         hid, sup, K = self.hid, self.support, len(self.support)
         tests = np.maximum(a[:, self.t0 :], 0)

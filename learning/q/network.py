@@ -257,15 +257,26 @@ class FactoredQNet(nn.Module):
         return q.gather(1, self.lab_of_act[actions][:, None])[:, 0]
 
     def first_layer_pairs(
-        self, bits: torch.Tensor, task_feat: torch.Tensor, state_of: torch.Tensor, task_of: torch.Tensor
+        self,
+        bits: torch.Tensor,
+        task_feat: torch.Tensor,
+        state_of: torch.Tensor,
+        task_of: torch.Tensor,
+        objects: torch.Tensor | None = None,
     ) -> torch.Tensor:
-        """The first layer's pre-activations of the observations [bits[state_of], task_feat[task_of]],
-        split: its state part once per state, its task part once per task (the 42-48 task rows of a
-        boundary state share one state projection)."""
+        """The first layer's pre-activations of the observations [bits[state_of], task_feat[task_of], and the
+        pairs' goal-object features], split: its state part once per state, its task part once per task (the
+        42-48 task rows of a boundary state share one state projection). `objects`: the encoding's (tasks,
+        atoms, k) `object_map` where it has goal-object features (their term is the pair's own)."""
         w, b, k = self.encoder[0].weight, self.encoder[0].bias, bits.shape[1]
-        return F.linear(bits, w[:, :k]).index_select(0, state_of) + F.linear(task_feat, w[:, k:], b).index_select(
+        n = k + task_feat.shape[1]
+        bits = bits.to(w.dtype)
+        pre = F.linear(bits, w[:, :k]).index_select(0, state_of) + F.linear(task_feat, w[:, k:n], b).index_select(
             0, task_of
         )
+        if objects is not None:
+            return pre + F.linear(object_pairs(bits, objects, state_of, task_of), w[:, n:])
+        return pre
 
     def forward_pairs(
         self,
@@ -275,11 +286,24 @@ class FactoredQNet(nn.Module):
         task_of: torch.Tensor,
         valid: torch.Tensor,
         masks: tuple | None = None,
+        objects: torch.Tensor | None = None,
     ) -> torch.Tensor:
-        """`forward` of the observations [bits[state_of], task_feat[task_of]] (`first_layer_pairs`)."""
+        """`forward` of the observations [bits[state_of], task_feat[task_of], ...] (`first_layer_pairs`)."""
         masks = self.head_masks(valid) if masks is None else masks
-        q = self.q_labels(self.first_layer_pairs(bits, task_feat, state_of, task_of), masks)
+        q = self.q_labels(self.first_layer_pairs(bits, task_feat, state_of, task_of, objects), masks)
         return q.index_select(1, self.lab_of_act).masked_fill(~valid, float("-inf"))
+
+
+def object_pairs(bits: torch.Tensor, objects: torch.Tensor, state_of: torch.Tensor, task_of: torch.Tensor):
+    """(P, k) goal-object features (`Encoding.object_features`) of the pairs (bits[state_of], task_of): every
+    distinct state's features for every task in one product, then the pairs' rows. `bits`: (..., S, atoms)
+    float, its leading dimensions (seeds) kept."""
+    T, A, K = objects.shape
+    y = (bits @ objects.to(bits.dtype).permute(1, 0, 2).reshape(A, T * K)).unflatten(-1, (T, K))  # (..., S, T, K)
+    if y.dim() == 3:
+        return y[state_of, task_of]
+    seeds = torch.arange(y.shape[0], device=y.device)[:, None]
+    return y[seeds, state_of, task_of]
 
 
 def masked_max(q: torch.Tensor, valid: torch.Tensor):

@@ -38,7 +38,7 @@ from torch import nn
 from planning.errors import DomainError
 
 from .inference import LiveGreedy
-from .network import FactoredQNet
+from .network import FactoredQNet, object_pairs
 from .replay import mixed_batch
 from .targets import TargetPlan
 
@@ -218,12 +218,15 @@ def pair_q(net: FactoredQNet, stack: Stack, P: dict, items: list) -> list:
     bits = torch.from_numpy(_pad([x[0].numpy() for x in inputs], Ns))
     state_of = torch.from_numpy(_pad([x[2].numpy() for x in inputs], N))
     task_of = torch.from_numpy(_pad([x[3].numpy() for x in inputs], N))
-    feat = inputs[0][1]
+    feat, objects = inputs[0][1], inputs[0][4]
     w, b, k = P["encoder.0.weight"], P["encoder.0.bias"], bits.shape[2]
+    kt = k + feat.shape[1]
     a = torch.bmm(bits, w[:, :, :k].transpose(1, 2))  # the state part, once per distinct state
-    t = _linear(feat.expand(S, -1, -1), w[:, :, k:], b)  # the task part, once per task
+    t = _linear(feat.expand(S, -1, -1), w[:, :, k:kt], b)  # the task part, once per task
     seeds = torch.arange(S)[:, None]
     pre = a[seeds, state_of] + t[seeds, task_of]
+    if objects is not None:  # the pairs' goal-object term (`FactoredQNet.first_layer_pairs`)
+        pre = pre + torch.bmm(object_pairs(bits, objects, state_of, task_of), w[:, :, kt:].transpose(1, 2))
     masks = _stack_masks([m for _, _, m in items], N)
     q = q_labels(net, stack, P, pre, masks)
     return [q[s, : n[s]] for s in range(S)]

@@ -134,10 +134,7 @@ class SlotCache:
         """(observations, validity, head-mask bits or None) of the batch's (s, τ) rows, as
         `Encoding.observe` / `valid_for` / `FactoredQNet.mask_bits`."""
         slots = self.encode(batch)
-        obs = np.concatenate(
-            [self.bits[slots, 0].astype(np.float32), self.enc.task_feat[np.asarray(batch["tasks"], dtype=np.int64)]],
-            axis=1,
-        )
+        obs = self.enc.observe_bits(self.bits[slots, 0], batch["tasks"])
         return obs, self.valid[slots, 0], None if self.masks is None else self.masks[slots, 0]
 
     def known(self, slots: np.ndarray) -> np.ndarray:
@@ -168,17 +165,28 @@ class _Pairs:
     def __init__(self, enc: Encoding, bits: np.ndarray, state_of: np.ndarray, task_of: np.ndarray, valid: np.ndarray):
         self.enc, self.bits, self.state_of, self.task_of, self.valid = enc, bits, state_of, task_of, valid
         self.feat = torch.from_numpy(enc.task_feat)
+        self.objects = torch.from_numpy(enc.object_map) if enc.paired else None
 
     def _inputs(self, rows, device):
-        """The distinct states' bits of these rows and the rows' state and task indices into them, on the
-        network's device."""
+        """The distinct states' bits of these rows, the task encodings, the rows' state and task indices into
+        them and the goal-object map (None without one), on the network's device."""
         states, s = np.unique(self.state_of[rows], return_inverse=True)
         return (
             torch.from_numpy(self.bits[states]).to(device),
             self.feat.to(device),
             torch.from_numpy(s.reshape(-1)).to(device),
             torch.from_numpy(self.task_of[rows]).to(device),
+            None if self.objects is None else self.objects.to(device),
         )
+
+    def _observations(self, bits, feat, s, t, objects) -> torch.Tensor:
+        """The rows' observations in full, for a network without the split first layer."""
+        obs = [bits[s], feat[t]]
+        if objects is not None:
+            from .network import object_pairs
+
+            obs.append(object_pairs(bits, objects, s, t))
+        return torch.cat(obs, 1)
 
     @staticmethod
     def columns(net: nn.Module, n_actions: int) -> torch.Tensor:
@@ -189,21 +197,21 @@ class _Pairs:
         """The column (`columns`) of the argmax over the valid actions of net's Q at the given rows (a
         FactoredQNet's over the labels that have a valid action), on the CPU."""
         dev = _device(net)
-        bits, feat, s, t = self._inputs(rows, dev)
+        inputs = self._inputs(rows, dev)
         if hasattr(net, "q_labels"):
-            q = net.q_labels(net.first_layer_pairs(bits, feat, s, t), masks)
+            q = net.q_labels(net.first_layer_pairs(*inputs), masks)
             invalid = torch.from_numpy(~net.label_valid(self.valid[rows])).to(dev)
             return q.masked_fill(invalid, float("-inf")).max(dim=1)[1].cpu()
         valid = torch.from_numpy(self.valid[rows]).to(dev)
-        return masked_max(net(torch.cat([bits[s], feat[t]], 1), valid), valid)[1].cpu()
+        return masked_max(net(self._observations(*inputs), valid), valid)[1].cpu()
 
     def values(self, net: nn.Module, rows: np.ndarray, masks) -> torch.Tensor:
         """net's Q at the given rows, in its columns (`columns`), on the CPU."""
         dev = _device(net)
-        bits, feat, s, t = self._inputs(rows, dev)
+        inputs = self._inputs(rows, dev)
         if hasattr(net, "q_labels"):
-            return net.q_labels(net.first_layer_pairs(bits, feat, s, t), masks).cpu()
-        return net(torch.cat([bits[s], feat[t]], 1), torch.from_numpy(self.valid[rows]).to(dev)).cpu()
+            return net.q_labels(net.first_layer_pairs(*inputs), masks).cpu()
+        return net(self._observations(*inputs), torch.from_numpy(self.valid[rows]).to(dev)).cpu()
 
 
 class TargetPlan:

@@ -23,10 +23,11 @@ def walk_states(model, n, seed=0):
     return out
 
 
-def test_stacked_q_equals_each_networks_own(two_room):
+@pytest.mark.parametrize("features", ["arguments", "arguments+objects"])
+def test_stacked_q_equals_each_networks_own(two_room, features):
     """pair_q of three networks with different weights and different row counts per seed equals each
-    network's `_Pairs.values` (float32 rounding), padding and all."""
-    enc = Encoding(two_room)
+    network's `_Pairs.values` (float32 rounding), padding and all; with the goal-object view too."""
+    enc = Encoding(two_room, features)
     nets = []
     for seed in (0, 4, 8):
         torch.manual_seed(seed)

@@ -1,0 +1,112 @@
+"""The goal-object view (`task_features = "arguments+objects"`): its features, and every path that values a
+(state, task) pair with the split first layer giving the network's own Q on the full observation."""
+
+import numpy as np
+import pytest
+import torch
+
+from learning.encoding import Encoding
+from learning.q.network import build_network
+from learning.q.targets import _Pairs
+from learning.q.training import Trainer, train_runs
+from learning.q.value import ValueFunction
+from planning.domain.compiler import compile_domain
+
+
+@pytest.fixture(scope="module")
+def grid7():
+    return compile_domain("domains/blockworld", "grid7x7")
+
+
+def test_the_state_seen_from_the_goals_objects(grid7):
+    """two-blocks(d_orange_e_green) names d, orange, e, green (slots 0-3): at the problem's start d is on
+    green, e on red, orange is free and the robot is elsewhere."""
+    enc = Encoding(grid7, "arguments+objects")
+    assert not Encoding(grid7).paired and enc.paired
+    assert enc.obs_dim == Encoding(grid7).obs_dim + len(enc.object_keys) and len(enc.object_keys) == 40
+    task = grid7.tasks.get("two-blocks(d_orange_e_green)")
+    f = enc.object_features(enc.bm.to_bits(enc.pack([grid7.init])).astype(np.float32), np.array([task.index]))
+    assert {enc.object_keys[k] for k in np.flatnonzero(f[0])} == {
+        (0, "at", 0, ("green",)),  # d is on green
+        (2, "at", 0, ("red",)),  # e is on red
+        (3, "at", 1, ("d",)),  # green holds d
+    }
+    one = grid7.tasks.get("one-block(d_orange)")
+    assert np.array_equal(enc.object_map[one.index], enc.object_map[task.index] * (np.arange(40) < 20))
+
+
+@pytest.mark.parametrize("where", [("blockworld", "grid7x7"), ("minimal", None)])
+def test_every_path_gives_the_networks_q(where):
+    model = compile_domain(f"domains/{where[0]}", where[1])
+    enc = Encoding(model, "arguments+objects")
+    assert enc.paired
+    torch.manual_seed(0)
+    net = build_network(enc, 32).eval()
+    states = model.random_walk_states(30, 1, 10)
+    packed = enc.pack(states)
+    vf = ValueFunction(net, enc)
+    assert vf.native is None  # the compiled engine has one state part for every task
+    tasks = np.resize(np.asarray(enc.support), len(states))
+    obs, valid = torch.from_numpy(enc.observe(packed, tasks)), torch.from_numpy(enc.valid_for(packed, tasks))
+    bits = enc.bm.to_bits(packed).astype(np.float32)
+    with torch.no_grad():
+        full = net(obs, valid)
+        split = net.forward_pairs(
+            torch.from_numpy(bits),
+            torch.from_numpy(enc.task_feat),
+            torch.arange(len(states)),
+            torch.from_numpy(tasks),
+            valid,
+            objects=torch.from_numpy(enc.object_map),
+        )
+        pairs = _Pairs(enc, bits, np.arange(len(states)), tasks, enc.valid_for(packed, tasks))
+        labels = pairs.values(net, np.arange(len(states)), net.head_masks(valid))
+    assert torch.allclose(full, split, atol=1e-5)
+    assert torch.allclose(
+        full.max(1).values, labels.index_select(1, net.lab_of_act).masked_fill(~valid, -np.inf).max(1).values, atol=1e-5
+    )
+    for t in enc.support[:3]:
+        one = np.full(len(states), t)
+        with torch.no_grad():
+            ref = net(torch.from_numpy(enc.observe(packed, one)), torch.from_numpy(enc.valid_for(packed, one)))
+        assert np.allclose(vf.q_max(states, int(t)), ref.max(1).values.numpy(), atol=1e-4)
+    v_ap = 0.0
+    for t, p in zip(enc.support, enc.task_prob[enc.support]):
+        one = np.full(len(states), t)
+        with torch.no_grad():
+            v_ap = (
+                v_ap
+                + p
+                * net(torch.from_numpy(enc.observe(packed, one)), torch.from_numpy(enc.valid_for(packed, one)))
+                .max(1)
+                .values.double()
+                .numpy()
+            )
+    assert np.allclose(vf.v_ap(states), v_ap, atol=1e-4)
+
+
+def test_seeds_trained_together_follow_their_single_runs(minimal, tmp_path):
+    """With the goal-object view, two anticipatory seeds trained together and each alone agree after 101
+    updates (float32 rounding), as with the thesis's encoding (tests/learning/test_seeds.py)."""
+    from tests.learning.test_dqn import small_config
+
+    cfg = lambda seed, where: small_config(
+        minimal,
+        tmp_path / where / str(seed),
+        "anticipatory",
+        seed=seed,
+        steps=200,
+        demo_tasks=20,
+        hidden=32,
+        task_features="arguments+objects",
+    )
+    alone = []
+    for seed in (0, 3):
+        t = Trainer(cfg(seed, "alone"), progress=False)
+        t.train()
+        alone.append(t)
+    together = train_runs([cfg(0, "together"), cfg(3, "together")], progress=False)
+    assert together[0].enc.paired
+    for a, b in zip(alone, together):
+        for p, q in zip(a.net.parameters(), b.net.parameters()):
+            assert torch.allclose(p, q, rtol=0, atol=1e-5)
