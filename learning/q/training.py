@@ -200,11 +200,13 @@ def file_in(folder, name: str, where, field: str) -> Path:
 
 
 def bound_suffix(cfg) -> str:
-    """What a run with a target bound, another stream than the i.i.d. one or another estimator than the known P
-    adds to its folder and checkpoint names ('' for the thesis's setting)."""
+    """What a run with a target bound, another stream than the i.i.d. one, another estimator than the known P or
+    another task encoding than the thesis's adds to its folder and checkpoint names ('' for the thesis's setting)."""
     get = (lambda k, d: cfg.get(k, d)) if isinstance(cfg, dict) else (lambda k, d: getattr(cfg, k, d))
     bound, stream, est = get("target_bound", "none"), get("stream", "iid"), get("estimator", "known")
-    out = "" if stream in (None, "iid") else f"-stream-{stream}"
+    features = get("task_features", "arguments")
+    out = "" if features in (None, "arguments") else f"-features-{features.rpartition('+')[2]}"
+    out += "" if stream in (None, "iid") else f"-stream-{stream}"
     if est not in (None, "known"):
         out += f"-est-{est}"
         forget = get("estimator_forget", 1.0)

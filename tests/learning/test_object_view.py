@@ -110,3 +110,13 @@ def test_seeds_trained_together_follow_their_single_runs(minimal, tmp_path):
     for a, b in zip(alone, together):
         for p, q in zip(a.net.parameters(), b.net.parameters()):
             assert torch.allclose(p, q, rtol=0, atol=1e-5)
+
+
+def test_a_run_with_another_encoding_keeps_its_files_apart():
+    from learning.q.training import Config, bound_suffix, run_name
+
+    cfg = Config(domain="domains/blockworld", layout="grid7x7", task_features="arguments+objects")
+    assert bound_suffix(cfg) == "-features-objects"
+    assert run_name("blockworld", cfg) == "blockworld-grid7x7-anticipatory-seed0-features-objects"
+    assert bound_suffix(Config(task_features="arguments+goal")) == "-features-goal"
+    assert bound_suffix(Config()) == "" and bound_suffix({"task_features": None}) == ""
