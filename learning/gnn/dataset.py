@@ -441,7 +441,7 @@ class Workers:
         chunk = max(1, min(25, len(todo) // (4 * max(1, self.cfg.workers))))
         for lo in range(0, len(todo), chunk):
             self._pending.append(self.pool.apply_async(_label_chunk, (todo[lo : lo + chunk],)))
-        self.poll()
+            self.poll()  # in one process the chunk has run already: take it, and checkpoint when due
 
     def collect(self, stream: int, n: int, cache: Path, exclude: frozenset):
         """Start collecting n prepared states of one stream; a job whose get() returns them."""

@@ -76,6 +76,28 @@ def test_labelling_resumes_from_checkpoint(minimal, minimal_states, tmp_path):
         label_states(minimal_states, cfg, ck, progress=False)
 
 
+def test_one_process_checkpoints_its_labels_as_it_goes(minimal, minimal_states, tmp_path, monkeypatch):
+    """With one worker every chunk runs when it is queued: the labels already made reach the checkpoint
+    between chunks (an interrupted build keeps them), not only when the last chunk is done."""
+    import learning.gnn.dataset as dataset
+
+    monkeypatch.setattr(dataset, "CHECKPOINT_SECONDS", 0.0)
+    cfg = DatasetConfig(layout="grid", domain="domains/minimal", workers=1, heuristic="hmax")
+    ck = tmp_path / "labels.partial.json"
+    seen = []  # labels in the checkpoint when each chunk starts
+    real = dataset._label_chunk
+
+    def chunk(states):
+        seen.append(len(json.loads(ck.read_text())["labels"]) if ck.is_file() else 0)
+        return real(states)
+
+    monkeypatch.setattr(dataset, "_label_chunk", chunk)
+    states = minimal_states[:8]
+    labels = label_states(states, cfg, ck, progress=False)
+    assert len(labels) == len(states) and len(seen) == 4  # chunks of 2
+    assert seen == [0, 2, 4, 6]
+
+
 def test_not_a_dataset_folder(tmp_path):
     with pytest.raises(DomainError, match="not a gnn_dataset folder"):
         load_dataset(tmp_path)
