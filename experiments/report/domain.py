@@ -75,15 +75,26 @@ def results_name(domain: str, run_name: str, layout: str) -> str:
     return results_file(run_name, domain, layout)
 
 
-def rl_seeds(domain: str, layout: str, horizon: str) -> list[int]:
-    """The seeds of `checkpoints/<domain>-rl-<horizon>-<layout>-seed<N>.pt` trained on this domain (its PDDL name
-    as the checkpoint records it; a checkpoint that records none is counted)."""
+def rl_suffix(model) -> str:
+    """What the names of the domain's RL runs end with: the mark of its task encoding where domain.toml [training]
+    names another than the thesis's (`learning.q.training.bound_suffix`), else ''."""
+    from learning.encoding import domain_task_features
+    from learning.q.training import bound_suffix
+
+    return bound_suffix({"task_features": domain_task_features(model)})
+
+
+def rl_seeds(domain: str, layout: str, horizon: str, suffix: str = "") -> list[int]:
+    """The seeds of `checkpoints/<domain>-rl-<horizon>-<layout>-seed<N><suffix>.pt` trained on this domain (its PDDL
+    name as the checkpoint records it; a checkpoint that records none is counted)."""
     from learning.q.checkpoints import read_checkpoint
     from planning.errors import DomainError
 
     seeds = []
-    for path in Path("checkpoints").glob(f"{domain}-rl-{horizon}-{layout}-seed*.pt"):
-        m = re.fullmatch(rf"{re.escape(domain)}-rl-{re.escape(horizon)}-{re.escape(layout)}-seed(\d+)", path.stem)
+    for path in Path("checkpoints").glob(f"{domain}-rl-{horizon}-{layout}-seed*{suffix}.pt"):
+        m = re.fullmatch(
+            rf"{re.escape(domain)}-rl-{re.escape(horizon)}-{re.escape(layout)}-seed(\d+){re.escape(suffix)}", path.stem
+        )
         if not m:
             continue
         try:
@@ -110,18 +121,19 @@ def rows(ctx, layout: str) -> list[Row]:
 
     folder, domain = ctx.domain, ctx.model(layout).name
     d = ("--domain", folder)
+    mark = rl_suffix(ctx.model(layout))  # the domain's task encoding, where not the thesis's
 
     def rl_run(agent, horizon, s):
-        ckpt = f"checkpoints/{domain}-rl-{horizon}-{layout}-seed{s}.pt"
+        ckpt = f"checkpoints/{domain}-rl-{horizon}-{layout}-seed{s}{mark}.pt"
         train = (
             f"python -m learning.dqn --domain {folder} --layout {layout} --horizon {horizon} --seed {s} && "
-            f"python -m learning.export runs/dqn/{domain}-{layout}-{horizon}-seed{s}"
+            f"python -m learning.export runs/dqn/{domain}-{layout}-{horizon}-seed{s}{mark}"
         )
         return Run(
             agent,
             layout,
             (*d, "--checkpoint", ckpt),
-            results_name(domain, f"{agent}-{horizon}-{layout}-seed{s}", layout),
+            results_name(domain, f"{agent}-{horizon}-{layout}-seed{s}{mark}", layout),
             s,
             ckpt,
             train,
@@ -161,7 +173,7 @@ def rows(ctx, layout: str) -> list[Row]:
         ),
     ]
     for horizon in HORIZONS:
-        seeds = rl_seeds(domain, layout, horizon) or [0]
+        seeds = rl_seeds(domain, layout, horizon, mark) or [0]
         for agent, deployment in (("rl-greedy", "greedy"), ("rl-guided", "guided")):
             out.append(
                 Row(

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import pytest
+import torch
 
 from experiments import reproduce
 from experiments.report import domain
@@ -100,6 +101,32 @@ def test_layouts_are_the_folders(minimal_copy, monkeypatch, capsys):
     assert capsys.readouterr().err.strip() == "error: --layouts: 'two-room' names no known layout (known: grid)"
     assert run_reproduce(monkeypatch, "--domain", "minimal", "--discount-sweep", "--report-only") == 2
     assert "trains the restaurant's Table A.5 runs" in capsys.readouterr().err
+
+
+def test_rl_rows_follow_the_domains_task_encoding(minimal_copy):
+    """A domain whose [training] names another task encoding than the thesis's reports the runs its commands
+    make: their folders, checkpoints and results files end with the encoding's mark."""
+    toml = minimal_copy / "minimal" / "domain.toml"
+    toml.write_text(toml.read_text().replace("[training]\n", '[training]\ntask_features = "arguments+objects"\n', 1))
+    ctx = Context("minimal")
+    (row,) = [r for r in domain.rows(ctx, "grid") if r.key == "myopic-rl-greedy"]
+    (run,) = row.runs
+    assert run.out == "results/minimal-rl-greedy-myopic-grid-seed0-features-objects.json"
+    assert run.checkpoint == "checkpoints/minimal-rl-myopic-grid-seed0-features-objects.pt"
+    assert run.train.endswith("python -m learning.export runs/dqn/minimal-grid-myopic-seed0-features-objects")
+    from learning.encoding import Encoding
+    from learning.q.checkpoints import network_payload
+    from learning.q.network import build_network
+
+    (minimal_copy / "checkpoints").mkdir()
+    for name, features in (
+        ("minimal-rl-myopic-grid-seed4-features-objects", "arguments+objects"),
+        ("minimal-rl-myopic-grid-seed8", "arguments"),
+    ):
+        enc = Encoding(ctx.model("grid"), features)
+        torch.save(network_payload(build_network(enc, 8), enc), minimal_copy / "checkpoints" / f"{name}.pt")
+    assert domain.rl_seeds("minimal", "grid", "myopic", "-features-objects") == [4]
+    assert domain.rl_seeds("minimal", "grid", "myopic") == [8]
 
 
 PUBLISHED = """
