@@ -59,17 +59,22 @@ def test_the_goal_atoms_are_the_jobs_wanted_placements(grid7):
 
 def test_the_domain_names_its_encoding_and_a_checkpoint_keeps_its_own(grid7, tmp_path):
     """domain.toml [training] task_features is the default of the trainer and of Encoding(model) (the bundled
-    blockworld keeps the thesis's); a checkpoint is read with the encoding it was trained with, whatever the
-    domain says now."""
-    assert Encoding(grid7).task_features == "arguments" and "task_features" not in domain_defaults(grid7, "myopic")
+    blockworld names the goal-object view, the restaurant nothing: the thesis's); a checkpoint is read with the
+    encoding it was trained with, whatever the domain says now."""
+    assert Encoding(grid7).task_features == "arguments+objects"
+    assert domain_defaults(grid7, "myopic")["task_features"] == "arguments+objects"
+    restaurant = compile_domain("domains/restaurant", "two-room")
+    assert Encoding(restaurant).task_features == "arguments" and "task_features" not in domain_defaults(
+        restaurant, "myopic"
+    )
     folder = tmp_path / "blockworld"
     shutil.copytree(BLOCKWORLD, folder, ignore=shutil.ignore_patterns("sequences"))
     toml = folder / "domain.toml"
-    toml.write_text(toml.read_text().replace("[training]\n", '[training]\ntask_features = "arguments+goal"\n', 1))
+    toml.write_text(toml.read_text().replace('task_features = "arguments+objects"', 'task_features = "arguments+goal"'))
     goal = compile_domain(folder, "grid7x7")
     assert domain_defaults(goal, "myopic")["task_features"] == "arguments+goal"
     assert Encoding(goal).task_features == "arguments+goal"
-    for features in ("arguments", "arguments+goal"):
+    for features in ("arguments", "arguments+goal", "arguments+objects"):
         enc = Encoding(grid7, features)
         payload = network_payload(build_network(enc, 16), enc, {"config": {"task_features": features}})
         path = save_checkpoint(tmp_path / f"{features}.pt", payload)
