@@ -22,8 +22,8 @@ def test_the_state_seen_from_the_goals_objects(grid7):
     """two-blocks(d_orange_e_green) names d, orange, e, green (slots 0-3): at the problem's start d is on
     green, e on red, orange is free and the robot is elsewhere."""
     enc = Encoding(grid7, "arguments+objects")
-    assert not Encoding(grid7).paired and enc.paired
-    assert enc.obs_dim == Encoding(grid7).obs_dim + len(enc.object_keys) and len(enc.object_keys) == 40
+    assert not Encoding(grid7, "arguments").paired and enc.paired
+    assert enc.obs_dim == Encoding(grid7, "arguments").obs_dim + len(enc.object_keys) and len(enc.object_keys) == 40
     task = grid7.tasks.get("two-blocks(d_orange_e_green)")
     f = enc.object_features(enc.bm.to_bits(enc.pack([grid7.init])).astype(np.float32), np.array([task.index]))
     assert {enc.object_keys[k] for k in np.flatnonzero(f[0])} == {
