@@ -17,8 +17,7 @@ some binding of its goal requires true, then over those it requires false (colum
 uses are dropped). A domain whose tasks name an entry of a library (a job object whose static
 facts say which blocks go where, as the blockworld's) shows the learner nothing of the goal in
 its arguments; the goal atoms line up with the state's own bits. On the blockworld a paired
-check found no difference in 30,000 steps (docs/domains.md), so the bundled domains keep the
-thesis's encoding.
+check found no difference in 30,000 steps (docs/domains.md), so no bundled domain uses it.
 
 With `task_features = "arguments+objects"` the observation also carries the state *seen from the
 goal's objects*: for each object every binding of the task's goal names (its slot: first, second,
@@ -28,7 +27,8 @@ slots are d, orange, e, green, and the features say where d is, whether it is he
 on orange, whether the robot is there, and the same for e and green: the join of "the job's block"
 and "where blocks are" that the flat vector leaves the network to learn for each job apart. The
 features depend on the state and the task together (`Encoding.paired`): the networks' split first
-layer adds their term per (state, task) pair (`FactoredQNet.first_layer_pairs`).
+layer adds their term per (state, task) pair (`FactoredQNet.first_layer_pairs`). The blockworld
+trains with it (its domain.toml says why); the restaurant keeps the thesis's encoding.
 
 Actions. The factored labels of `planning.domain.factored` (Table A.1), plus one extra
 pseudo-action AUTO = n_actions: the internal auto_complete event. A task that
