@@ -110,13 +110,14 @@ class Labeller:
         model, rng = self.model, np.random.default_rng(seed)
         tasks = list(model.tasks)
         p = np.asarray(model.tasks.probabilities, dtype=np.float64)
+        p = p / p.sum()
         per_reset = model.config.get("stream", {}).get("tasks_per_reset", 50)
         rows, pairs, n = [], {}, 0
         state = model.reset_state(rng)
         while len(pairs) < n_pairs:
             if n and n % per_reset == 0:
                 state = model.reset_state(rng)
-            task = tasks[rng.choice(len(tasks), p=p / p.sum())]
+            task = tasks[rng.choice(len(tasks), p=p)]
             n += 1
             for _ in range(max_actions):
                 if task.satisfied(state) or len(pairs) >= n_pairs:
@@ -150,14 +151,16 @@ def best_is_optimal(q: np.ndarray, target: np.ndarray, pair: np.ndarray, tol: fl
 
 
 def fit(enc: Encoding, data: dict, s: Settings, log=print) -> tuple:
-    """A fresh network fitted to the labels; (network, the per-epoch rows it logged, held-out mask)."""
+    """A fresh network fitted to the labels; (network, the per-epoch rows it logged)."""
     torch.manual_seed(s.seed)
     rng = np.random.default_rng(s.seed + 1)
-    packed = enc.pack(data["state"])
-    obs = torch.from_numpy(enc.observe(packed, data["task"]))
-    valid = torch.from_numpy(enc.valid_for(packed, data["task"]))
-    act, y = torch.from_numpy(data["action"]), torch.from_numpy(data["q"])
     n_pairs = int(data["pair"].max()) + 1
+    first = np.unique(data["pair"], return_index=True)[1]  # a row of each pair: its state and task
+    packed = enc.pack([data["state"][i] for i in first])
+    pair_obs = torch.from_numpy(enc.observe(packed, data["task"][first]))
+    pair_valid = torch.from_numpy(enc.valid_for(packed, data["task"][first]))
+    of = torch.from_numpy(data["pair"])  # each row's pair: observations and validity once per pair
+    act, y = torch.from_numpy(data["action"]), torch.from_numpy(data["q"])
     held = rng.permutation(n_pairs)[: n_pairs // 5]
     test = np.isin(data["pair"], held)
     train_rows, test_rows = np.flatnonzero(~test), np.flatnonzero(test)
@@ -166,7 +169,7 @@ def fit(enc: Encoding, data: dict, s: Settings, log=print) -> tuple:
 
     def measure(rows) -> tuple[float, float]:
         with torch.inference_mode():
-            q = net.q_taken(obs[rows], valid[rows], act[rows]).numpy()
+            q = net.q_taken(pair_obs[of[rows]], pair_valid[of[rows]], act[rows]).numpy()
         return best_is_optimal(q, data["q"][rows], data["pair"][rows]), float(np.abs(q - data["q"][rows]).mean())
 
     history, every = [], max(1, s.epochs // 10)
@@ -174,7 +177,7 @@ def fit(enc: Encoding, data: dict, s: Settings, log=print) -> tuple:
         order = rng.permutation(train_rows)
         for i in range(0, len(order), s.batch_size):
             b = torch.from_numpy(order[i : i + s.batch_size])
-            loss = F.smooth_l1_loss(net.q_taken(obs[b], valid[b], act[b]), y[b])
+            loss = F.smooth_l1_loss(net.q_taken(pair_obs[of[b]], pair_valid[of[b]], act[b]), y[b])
             opt.zero_grad()
             loss.backward()
             torch.nn.utils.clip_grad_norm_(net.parameters(), DEFAULTS.grad_clip)

@@ -16,7 +16,7 @@ from torch import nn
 from learning.encoding import Encoding
 from planning.errors import DomainError
 
-from .network import FactoredQNet, masked_max
+from .network import FactoredQNet, masked_max, object_pairs
 from .replay import COMPLETE, CONTINUE
 
 
@@ -183,8 +183,6 @@ class _Pairs:
         """The rows' observations in full, for a network without the split first layer."""
         obs = [bits[s], feat[t]]
         if objects is not None:
-            from .network import object_pairs
-
             obs.append(object_pairs(bits, objects, s, t))
         return torch.cat(obs, 1)
 
