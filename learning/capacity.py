@@ -200,6 +200,11 @@ def fit(enc: Encoding, data: dict, s: Settings, log=print) -> tuple:
     return net.eval(), history
 
 
+def default_out(model) -> str:
+    """The check's results file when --out is not given: results/[<domain>-]capacity-<layout>.json."""
+    return f"results/{domain_prefix(model.name, '--domain')}capacity-{model.layout}.json"
+
+
 def main() -> None:
     p = cli.parser(__doc__.splitlines()[0], seed=False)
     cli.add_dataclass_options(p, Settings)
@@ -212,7 +217,7 @@ def main() -> None:
         raise DomainError("--states/--epochs/--detour", "need at least 10 states, 1 epoch and a detour in [0, 1]")
     one_thread()
     model = compile_domain(args.domain, args.layout)
-    out = args.out or f"results/{domain_prefix(model.name, '--domain')}capacity-{model.layout}.json"
+    out = args.out or default_out(model)
     cli.check_writable(out)
     if Path(out).is_file() and not args.force:
         refuse_other(out, model, {"settings": asdict(s)}, "capacity check")

@@ -394,7 +394,7 @@ CAPACITY_TEXT = (
 def capacity(ctx, layouts) -> list[str]:
     """Every capacity check under results/ (learning.capacity), this domain's first; the command of each of
     this domain's layouts without its default check."""
-    from learning.export import domain_prefix
+    from learning.capacity import default_out
 
     name = ctx.model(layouts[0]).name
     body = []
@@ -421,7 +421,7 @@ def capacity(ctx, layouts) -> list[str]:
     todo = [
         f"- not run: `python -m learning.capacity --domain {ctx.domain} --layout {layout}`"
         for layout in layouts
-        if read_finished(f"results/{domain_prefix(name, ctx.domain)}capacity-{layout}.json") is None
+        if read_finished(default_out(ctx.model(layout))) is None
     ]
     if not rows_:
         return todo or ["No results yet."]
