@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 import torch
 import torch.nn.functional as F
+from tqdm import tqdm
 
 from learning.encoding import TASK_FEATURES, Encoding
 from learning.export import domain_prefix
@@ -104,9 +105,10 @@ class Labeller:
             out.append((a, -cost / self.scale + (self.r_goal if done else self.gamma * self.plan(s2, task)[0])))
         return out
 
-    def visit(self, n_pairs: int, seed: int, detour: float, max_actions: int) -> dict:
+    def visit(self, n_pairs: int, seed: int, detour: float, max_actions: int, progress: bool = False) -> dict:
         """Labelled triples on the states of a persistent i.i.d. stream, with the world reset as the
         domain's stream resets it: arrays state (packed later), task, action, q, pair (its pair's id)."""
+        bar = tqdm(total=n_pairs, desc=f"labelling Q* {self.model.layout}", unit="state", disable=not progress)
         model, rng = self.model, np.random.default_rng(seed)
         tasks = list(model.tasks)
         p = np.asarray(model.tasks.probabilities, dtype=np.float64)
@@ -123,12 +125,14 @@ class Labeller:
                 if task.satisfied(state) or len(pairs) >= n_pairs:
                     break
                 pid = pairs.setdefault((state, task.index), len(pairs))
+                bar.update(len(pairs) - bar.n)
                 rows += [(state, task.index, a, q, pid) for a, q in self.q_star(state, task)]
                 plan = self.plan(state, task)[1]
                 a = plan[0] if rng.random() >= detour else int(rng.choice(model.applicable(state)))
                 state = model.apply(state, a)
             if task.satisfied(state):
                 state = task.consume(state)
+        bar.close()
         cols = list(zip(*rows))
         return {
             "state": list(cols[0]),
@@ -150,7 +154,7 @@ def best_is_optimal(q: np.ndarray, target: np.ndarray, pair: np.ndarray, tol: fl
     return float(np.mean(target[chosen] >= best_target[pair[chosen]] - tol))
 
 
-def fit(enc: Encoding, data: dict, s: Settings, log=print) -> tuple:
+def fit(enc: Encoding, data: dict, s: Settings, log=print, progress: bool = False) -> tuple:
     """A fresh network fitted to the labels; (network, the per-epoch rows it logged)."""
     torch.manual_seed(s.seed)
     rng = np.random.default_rng(s.seed + 1)
@@ -173,7 +177,7 @@ def fit(enc: Encoding, data: dict, s: Settings, log=print) -> tuple:
         return best_is_optimal(q, data["q"][rows], data["pair"][rows]), float(np.abs(q - data["q"][rows]).mean())
 
     history, every = [], max(1, s.epochs // 10)
-    for epoch in range(1, s.epochs + 1):
+    for epoch in tqdm(range(1, s.epochs + 1), desc="fitting", unit="epoch", disable=not progress):
         order = rng.permutation(train_rows)
         for i in range(0, len(order), s.batch_size):
             b = torch.from_numpy(order[i : i + s.batch_size])
@@ -206,7 +210,7 @@ def default_out(model) -> str:
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0], seed=False)
+    p = cli.parser(__doc__.splitlines()[0], seed=False, progress=True)
     cli.add_dataclass_options(p, Settings)
     p.add_argument("--force", action="store_true", help="replace a check made with other settings or domain content")
     args = p.parse_args()
@@ -223,11 +227,11 @@ def main() -> None:
         refuse_other(out, model, {"settings": asdict(s)}, "capacity check")
     start = time.perf_counter()
     labeller = Labeller(model, s.gamma, goal_reward(model) if s.goal_reward is None else s.goal_reward)
-    data = labeller.visit(s.states, s.seed, s.detour, s.max_actions)
+    data = labeller.visit(s.states, s.seed, s.detour, s.max_actions, not args.no_progress)
     label_s = time.perf_counter() - start
     print(f"{len(data['q'])} labelled actions on {s.states} (state, task) pairs in {label_s:.0f} s", flush=True)
     enc = Encoding(model, s.task_features)
-    net, history = fit(enc, data, s)
+    net, history = fit(enc, data, s, tqdm.write, not args.no_progress)
     ev = greedy_evaluation(
         ValueFunction(net, enc, s.gamma),
         model,
