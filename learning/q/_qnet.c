@@ -1,7 +1,8 @@
 /* max_a Q(s, tau, a) of the factored dueling Q-network (learning/q/network.py; its engine NativeQ in learning/q/inference.py) for int-bitset states, in C.
  *
  * The same function as BatchedQ.q_max (see its docstring for the structure):
- *   h1 = relu(b1 + task part + sum of the atom columns of layer 1)      float32
+ *   h1 = relu(b1 + task part + sum of the atom columns of layer 1      float32
+ *             + the task's goal-object columns of its true atoms)     (Encoding.paired)
  *   h2 = relu(b2 + W2 h1)                                                float32
  *   V  = bv + wv . relu(bv1 + Wv1 h2)                                    float64
  *   per live (head, prefix) segment with two or more valid values: the advantages of its valid
@@ -43,6 +44,10 @@ typedef struct {
     const int32_t *goal0, *goaln;    /* per task: its goal bindings in goal_pos / goal_neg */
     const uint64_t *goal_pos, *goal_neg;
     void *memo;                      /* NULL, or a qnet_memo (below) */
+    /* goal-object features (Encoding.paired): per task, (atom, feature) pairs (CSR: obj0, n_tasks + 1);
+       a true atom adds its feature's column of layer 1 (wobj, n_obj_feat x hid) */
+    const int32_t *obj0, *obj_atom, *obj_feat;
+    const float *wobj;
 } qnet_t;
 
 static inline int holds(const uint64_t *s, const uint64_t *p, const uint64_t *n, int64_t W) {
@@ -239,6 +244,12 @@ static int q_compute(const qnet_t *q, int64_t task, const uint64_t *states, int6
                     const float *col = q->w1 + i * hid;
                     for (int64_t j = 0; j < hid; j++) a[j] = a[j] + col[j];
                 }
+            }
+            for (int32_t p = q->obj0[task], pe = q->obj0[task + 1]; p < pe; p++) {
+                int32_t i = q->obj_atom[p];
+                if (!((s[i >> 6] >> (i & 63)) & 1)) continue;
+                const float *col = q->wobj + (int64_t)q->obj_feat[p] * hid;
+                for (int64_t j = 0; j < hid; j++) a[j] = a[j] + col[j];
             }
             relu_f(a, hid);
             /* the goal, the valid variants, the columns they use, each segment's count */

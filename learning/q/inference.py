@@ -383,6 +383,7 @@ class NativeQ:
         groups = model.trigger_groups()  # variant -> one of its positive atoms (-1: none)
         tasks = list(model.tasks)
         goal0, goaln, gpos, gneg = [], [], [], []
+        obj_t, obj_atom, obj_feat = np.nonzero(enc.object_map)  # goal-object features: per task, in atom order
         for t in tasks:
             goal0.append(len(gpos))
             goaln.append(len(t.bindings))
@@ -415,6 +416,10 @@ class NativeQ:
             "goaln": i32(goaln),
             "goal_pos": words(gpos),
             "goal_neg": words(gneg),
+            "obj0": i32(np.searchsorted(obj_t, np.arange(len(tasks) + 1))),
+            "obj_atom": i32(obj_atom if len(obj_atom) else [0]),
+            "obj_feat": i32(obj_feat if len(obj_feat) else [0]),
+            "wobj": f32(w1[n + enc.task_feat.shape[1] :] if enc.paired else np.zeros(1)),
         }
         P, I = ctypes.c_void_p, ctypes.c_int64
 
@@ -445,6 +450,7 @@ class NativeQ:
                     (k, P)
                     for k in ("var_col0", "var_coln", "var_cols", "goal0", "goaln", "goal_pos", "goal_neg", "memo")
                 ]
+                + [(k, P) for k in ("obj0", "obj_atom", "obj_feat", "wobj")]
             )
 
         self.spec = Spec(

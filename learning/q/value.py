@@ -76,10 +76,9 @@ class ValueFunction:
 
     @property
     def native(self) -> "NativeQ | None":
-        """The compiled engine, or None where there is no C compiler (or QNET_NATIVE=0), the value runs on a
-        device (`to_device`) or its encoding has goal-object features (`Encoding.paired`: the engine's layer 1
-        has one state part for every task)."""
-        if self.device is not None or self.enc.paired:
+        """The compiled engine, or None where there is no C compiler (or QNET_NATIVE=0) or the value runs on a
+        device (`to_device`)."""
+        if self.device is not None:
             return None
         if self._native is None:
             lib = _qnet_lib()
