@@ -22,7 +22,8 @@
   the TD target and the share of the domain's preparation action ([preparation] action:
   refill-water in the restaurant, `refill_action`) in the last log window; the
   greedy evaluations (and, for a myopic run, demo_q_bias: Q above the myopic
-  oracle's return on the demonstrations, the divergence alarm); the largest selected
+  oracle's return on the demonstrations, the divergence alarm), and every one of them
+  (`greedy_checks`: the learning curve by which a step count is judged); the largest selected
   Q of the run and where, and the largest refill-water share, per log window and cumulative
   since step 0 (the authors' code plots the cumulative share: the thesis's Figure A.2);
   the wall time of the training loop (the sum of each
@@ -178,6 +179,7 @@ def key_figures(logs: list[dict], evals: list[dict], refill: str | None = None) 
         "refill_action": refill,
         "at": at,
         "best_greedy": _eval(best) if best else None,
+        "greedy_checks": [_eval(e) for e in evals],
         "peak_selected_q": {"step": peak["step"], "selected_q": round(peak["selected_q"], 3)},
         "peak_refill_share": {"step": top[1], "share": top[0]} if refill else None,
         "peak_refill_share_cumulative": {"step": top_cumulative[1], "share": top_cumulative[0]} if refill else None,

@@ -144,6 +144,17 @@ class Context:
             self._models[layout] = compile_domain(self.domain, layout)
         return self._models[layout]
 
+    def training(self, checkpoint: str) -> dict | None:
+        """The training file `learning.export` wrote with this checkpoint (a results/*training-*.json that
+        names it), or None."""
+        if not hasattr(self, "_training"):
+            self._training = {}
+            for path in sorted(Path("results").glob("*training-*.json")):
+                d = read_finished(path)
+                if d is not None and "horizon" in d and d.get("checkpoint"):
+                    self._training[str(d["checkpoint"])] = d
+        return self._training.get(str(checkpoint))
+
     def agent(self, run: Run):
         """The agent `experiments.evaluate` builds from the run's command line."""
         from oracles.command import run_options
@@ -223,6 +234,12 @@ def load_run(run: Run, ctx: Context) -> Loaded:
         if prov.get("checkpoint_sha256") and run.checkpoint and prov["checkpoint_sha256"] != sha256(run.checkpoint):
             loaded.status = "not used"
             loaded.note = f"made with another `{run.checkpoint}` (sha256 {prov['checkpoint_sha256'][:12]}…)"
+    trained = ctx.training(run.checkpoint) if run.checkpoint else None
+    if trained and isinstance(planned := (trained.get("config") or {}).get("steps"), int):
+        if trained.get("steps", 0) < planned:
+            loaded.flags.append(
+                f"its checkpoint comes from an unfinished run ({trained['steps']:,} of {planned:,} steps trained)"
+            )
     return loaded
 
 

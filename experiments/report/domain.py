@@ -63,8 +63,8 @@ NOT_APPLICABLE = [
     "the thesis's figures and columns (its costs are the restaurant's);",
     "Table 5.3, the value–search ablation of the three-room restaurant;",
     "Table A.5, the discount sweep (three-room, seed 0);",
-    "the restaurant's other reference tables: its labelling, trainer and GNN benchmarks, β selection, training "
-    "runs and the thesis's minimal example (`python -m experiments.reproduce` reports them).",
+    "the restaurant's other reference tables: its labelling, trainer and GNN benchmarks, β selection and the "
+    "thesis's minimal example (`python -m experiments.reproduce` reports them).",
 ]
 
 
@@ -442,6 +442,64 @@ def capacity(ctx, layouts) -> list[str]:
     ]
 
 
+TRAINING_TEXT = (
+    "Each Q-learning run of this domain that `learning.export` has written a training file for. The greedy "
+    "checks are the trainer's own (100 tasks of the evaluation stream, ε = 0, every `eval_every` steps): the "
+    "learning curve by which a run's step count is judged. A run whose trained steps fall short of its "
+    "configured ones is unfinished (still training, or stopped), and its checkpoint is its best check so far; "
+    "a results file made with such a checkpoint is flagged (†)."
+)
+
+
+def training(ctx, layouts) -> list[str]:
+    """A row per exported Q-learning run of this domain (results/<domain>-training-*.json) on `layouts`: its task
+    encoding, steps trained of those configured, every greedy check and the training success."""
+    name = ctx.model(layouts[0]).name
+    body = []
+    for path in sorted(Path("results").glob("*training-*.json")):
+        d = read_finished(path)
+        if d is None or "horizon" not in d or d.get("domain") != name or d.get("layout") not in layouts:
+            continue
+        cfg, at = d.get("config") or {}, d.get("at") or {}
+        checks = d.get("greedy_checks") or [at[m]["greedy"] for m in sorted(at, key=int) if "greedy" in at[m]]
+        planned = cfg.get("steps", d.get("steps"))
+        best = d.get("best_greedy") or {}
+        body.append(
+            [
+                f"`{path.name}`",
+                d["layout"],
+                d["horizon"],
+                d.get("seed"),
+                cfg.get("task_features") or "arguments",
+                f"{d.get('steps', 0):,} of {planned:,}" + (" (unfinished)" if d.get("steps", 0) < planned else ""),
+                ", ".join(f"{c['step'] // 1000}k {num(c['success_rate'], 2)}" for c in checks) or "—",
+                " / ".join(
+                    num(at[m]["success_last_100"], 2) if m in at else "—"
+                    for m in ("50000", "100000", "250000", "500000")
+                ),
+                f"{num(best.get('success_rate'), 2)} at {best.get('step', 0):,}" if best else "—",
+                num(d.get("train_hours"), 2),
+            ]
+        )
+    if not body:
+        return [f"No Q-learning run of {name} exported yet (`python -m learning.export runs/dqn/<run>`)."]
+    return table(
+        [
+            "results file",
+            "layout",
+            "horizon",
+            "seed",
+            "task encoding",
+            "steps trained",
+            "greedy success at each check",
+            "training success (last 100) at 50k / 100k / 250k / 500k",
+            "best greedy check",
+            "hours",
+        ],
+        body,
+    )
+
+
 PUBLISHED_KEYS = ("source", "what", "reduction", "layout", "ours", "protocol")
 """The keys of a domain.toml [[published]] entry (the module `published`)."""
 
@@ -550,6 +608,12 @@ def report(layouts, ctx, command: str) -> str:
         CAPACITY_TEXT,
         "",
         *capacity(ctx, layouts),
+        "",
+        "## Training runs: the learning curves",
+        "",
+        TRAINING_TEXT,
+        "",
+        *training(ctx, layouts),
         "",
         "## Held-out seven against development three",
         "",

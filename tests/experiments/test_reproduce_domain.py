@@ -257,3 +257,61 @@ def test_an_exported_checkpoint_plays_into_the_file_the_report_reads(minimal_cop
     assert checkpoint_run_name("gnn-native", "checkpoints/my-domain-gnn-augmented-grid-seed4.pt", "gnn-") == (
         "gnn-native-augmented-grid-seed4"
     )
+
+
+def test_training_runs_are_reported_with_their_learning_curves(minimal_copy):
+    """Each exported Q-learning run of this domain is a row with its encoding, steps trained of those configured
+    and every greedy check; a results file made with the checkpoint of an unfinished run is flagged."""
+    from learning.encoding import Encoding
+    from learning.q.checkpoints import network_payload
+    from learning.q.network import build_network
+
+    ctx = Context("minimal")
+    assert domain.training(ctx, ["grid"]) == [
+        "No Q-learning run of minimal exported yet (`python -m learning.export runs/dqn/<run>`)."
+    ]
+    ckpt = "checkpoints/minimal-rl-myopic-grid-seed0.pt"
+    figures = {
+        "run": "runs/dqn/minimal-grid-myopic-seed0",
+        "checkpoint": ckpt,
+        "domain": "minimal",
+        "layout": "grid",
+        "horizon": "myopic",
+        "seed": 0,
+        "steps": 50_000,
+        "config": {"steps": 500_000},
+        "at": {"50000": {"step": 50_000, "success_last_100": 0.15}},
+        "greedy_checks": [{"step": 25_000, "success_rate": 0.04}, {"step": 50_000, "success_rate": 0.07}],
+        "best_greedy": {"step": 50_000, "success_rate": 0.07},
+        "train_hours": 1.234,
+    }
+    write_json("results/minimal-training-myopic-grid-seed0.json", figures)
+    write_json(
+        "results/training-myopic-two-room-seed0.json",
+        {
+            **figures,
+            "domain": "restaurant",
+            "layout": "two-room",
+            "checkpoint": "checkpoints/rl-myopic-two-room-seed0.pt",
+        },
+    )
+    write_json("results/minimal-training-gnn-faithful-grid-seed0.json", {"checkpoint": "g.pt", "domain": "minimal"})
+    rows = [x for x in domain.training(ctx, ["grid"]) if x.startswith("| `")]
+    assert rows == [
+        "| `minimal-training-myopic-grid-seed0.json` | grid | myopic | 0 | arguments | 50,000 of 500,000 (unfinished) "
+        "| 25k 0.04, 50k 0.07 | 0.15 / — / — / — | 0.07 at 50,000 | 1.23 |"
+    ]
+    Path("checkpoints").mkdir()
+    enc = Encoding(ctx.model("grid"))
+    torch.save(network_payload(build_network(enc, 8), enc), ckpt)
+    model = ctx.model("grid")
+    for rec in generate(model):
+        write_json(sequence_dir(model) / f"seq-{rec['id']:02d}.json", rec)
+    (row,) = [r for r in domain.rows(ctx, "grid") if r.key == "myopic-rl-greedy"]
+    reproduce.run_missing([row], ctx, ids=[0], progress=False)
+    (loaded,) = load_rows([row], ctx)["myopic-rl-greedy"].loaded
+    assert loaded.used
+    assert "its checkpoint comes from an unfinished run (50,000 of 500,000 steps trained)" in loaded.flags
+    write_json("results/minimal-training-myopic-grid-seed0.json", {**figures, "steps": 500_000})
+    (loaded,) = load_rows([row], Context("minimal"))["myopic-rl-greedy"].loaded
+    assert not any("unfinished" in f for f in loaded.flags), loaded.flags

@@ -700,6 +700,10 @@ def test_key_figures_of_a_run():
     assert set(f["at"]) == {"50000", "100000", "250000"}
     assert f["at"]["250000"]["step"] == 250_000 and f["at"]["100000"]["greedy"]["demo_q_bias"] == 0.25
     assert f["best_greedy"]["step"] == 200_000
+    assert f["greedy_checks"] == [  # every greedy check, in order: the learning curve
+        {"step": 50_000, "success_rate": 0.5, "task_return": 1.0, "demo_q_bias": 0.25},
+        {"step": 200_000, "success_rate": 0.9, "task_return": 2.0},
+    ]
     assert f["peak_selected_q"] == {"step": 100_000, "selected_q": -900.0}
     assert f["peak_refill_share"] == {"step": 250_000, "share": 0.01}  # ties: the latest window
     # the cumulative share since step 0: windows of 25k steps at 0.01, then one at 0.04
