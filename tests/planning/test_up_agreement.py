@@ -13,6 +13,8 @@ from planning.external.up_bridge import UPStates, action_name, up_problem
         ("domains/restaurant", "two-room", 500),
         ("domains/restaurant", "three-room", 500),
         ("domains/minimal", "grid", 60),
+        ("domains/blockworld", "grid7x7", 200),
+        ("domains/blockworld", "grid10x10", 200),
     ],
 )
 def test_random_walks_agree_with_unified_planning(domain, layout, n):
