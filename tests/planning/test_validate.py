@@ -125,3 +125,17 @@ def test_the_command_exits_1_on_a_disagreement(committed, tmp_path):
     lines = r.stdout.splitlines()
     assert lines[0] == f"{COMMITTED}: ok: 500 tasks of 10 sequences replayed: actions, costs and goals agree"
     assert lines[1].startswith(f"{bad}: disagrees: sequence 0: the rows cost")
+
+
+@pytest.mark.slow
+def test_every_committed_results_file_replays():
+    """Every results file under results/ that records played sequences replays (about 8 minutes)."""
+    from pathlib import Path
+
+    validators, verdicts = {}, {}
+    for path in sorted(Path("results").glob("*.json")):
+        verdict, _, why = validate(path, validators=validators)
+        if why != "not a results file of played sequences":
+            verdicts[path.name] = (verdict, why)
+    assert len(verdicts) >= 200
+    assert {name: v for name, v in verdicts.items() if v[0] != "ok"} == {}
