@@ -17,6 +17,14 @@ from exact labels will not learn it from rewards; one that fits its training sta
 ones needs more experience than the labels hold, or an encoding that generalises.
 
     python -m learning.capacity --domain domains/blockworld --layout grid7x7 [--states 3000] [--epochs 150]
+
+With --score CHECKPOINT a trained myopic Q-network (learning.dqn's, exported) is scored on the same
+kind of labels instead of a network being fitted: how often its best action is optimal, how far its Q
+is from Q* (L1, and the means of both), and its greedy success. Where a Double-DQN does not learn,
+this says whether its values are wrongly shaped or have not yet grown to the returns. The labels use
+the checkpoint's discount and R_goal. Default file: results/[<domain>-]capacity-score-<its run name>.json.
+
+    python -m learning.capacity --domain domains/blockworld --layout grid7x7 --score CHECKPOINT [--states 3000]
 """
 
 from __future__ import annotations
@@ -204,6 +212,76 @@ def fit(enc: Encoding, data: dict, s: Settings, log=print, progress: bool = Fals
     return net.eval(), history
 
 
+def score(vf: ValueFunction, data: dict) -> dict:
+    """A trained network's Q against the labels: best action optimal (share of pairs), L1, mean Q and Q*."""
+    enc, net = vf.enc, vf.net
+    first = np.unique(data["pair"], return_index=True)[1]
+    packed = enc.pack([data["state"][i] for i in first])
+    obs = torch.from_numpy(enc.observe(packed, data["task"][first]))
+    valid = torch.from_numpy(enc.valid_for(packed, data["task"][first]))
+    of = torch.from_numpy(data["pair"])
+    with torch.inference_mode():
+        q = net.q_taken(obs[of], valid[of], torch.from_numpy(data["action"])).numpy().astype(np.float64)
+    return {
+        "pairs": int(len(first)),
+        "best_optimal": round(best_is_optimal(q, data["q"], data["pair"]), 4),
+        "l1": round(float(np.abs(q - data["q"]).mean()), 4),
+        "mean_q": round(float(q.mean()), 4),
+        "mean_q_star": round(float(data["q"].mean()), 4),
+    }
+
+
+def score_checkpoint(args, model) -> None:
+    """--score: a trained myopic checkpoint scored on labels made with its discount and R_goal."""
+    from learning.export import rl_name
+    from learning.q.checkpoints import read_checkpoint
+    from learning.q.value import value_function
+    from planning.atomic import sha256
+
+    payload = read_checkpoint(args.score)
+    cfg = payload.get("config", {})
+    if cfg.get("horizon") != "myopic":
+        raise DomainError(
+            args.score, f"trained for the {cfg.get('horizon')} horizon: --score compares with the myopic Q*"
+        )
+    vf = value_function(payload, model, args.score)
+    states, seed = args.states or Settings.states, args.seed or Settings.seed
+    out = args.out or f"results/{domain_prefix(model.name, '--domain')}capacity-score-{rl_name(cfg)}.json"
+    cli.check_writable(out)
+    settings = {"checkpoint_sha256": sha256(args.score), "states": states, "seed": seed, "detour": Settings.detour}
+    if Path(out).is_file() and not args.force:
+        refuse_other(out, model, {"settings": settings}, "capacity score")
+    start = time.perf_counter()
+    labeller = Labeller(model, cfg["gamma"], cfg["goal_reward"])
+    data = labeller.visit(states, seed, Settings.detour, Settings.max_actions, not args.no_progress)
+    scored = score(vf, data)
+    ev = greedy_evaluation(vf, model, 10_000, DEFAULTS.eval_tasks, cfg["gamma"], labeller.r_goal, labeller.scale)
+    print(
+        f"{args.score} (step {payload.get('step'):,}): best action optimal on {scored['best_optimal']:.3f} of "
+        f"{scored['pairs']} pairs, L1 {scored['l1']:.2f}, mean Q {scored['mean_q']:.2f} against Q* "
+        f"{scored['mean_q_star']:.2f}; greedy success {ev['success_rate']:.2f}"
+    )
+    result = {
+        "domain": model.name,
+        "layout": model.layout,
+        **identity(model),
+        "settings": settings,
+        "checkpoint": str(args.score),
+        "checkpoint_step": payload.get("step"),
+        "run": rl_name(cfg),
+        "task_features": cfg.get("task_features") or "arguments",
+        "r_goal": labeller.r_goal,
+        "gamma": cfg["gamma"],
+        "scored": scored,
+        "greedy": {**ev, "tasks": DEFAULTS.eval_tasks, "stream_seed": 10_000},
+        "seconds": round(time.perf_counter() - start, 1),
+    }
+    result["provenance"] = results_provenance(settings)
+    with OutputLock(out, "capacity score"):
+        write_json(out, result)
+    print(f"wrote {out}")
+
+
 def default_out(model) -> str:
     """The check's results file when --out is not given: results/[<domain>-]capacity-<layout>.json."""
     return f"results/{domain_prefix(model.name, '--domain')}capacity-{model.layout}.json"
@@ -213,7 +291,13 @@ def main() -> None:
     p = cli.parser(__doc__.splitlines()[0], seed=False, progress=True)
     cli.add_dataclass_options(p, Settings)
     p.add_argument("--force", action="store_true", help="replace a check made with other settings or domain content")
+    p.add_argument(
+        "--score", help="a trained myopic Q-network checkpoint to score on the labels instead of fitting one"
+    )
     args = p.parse_args()
+    if args.score:
+        one_thread()
+        return score_checkpoint(args, compile_domain(args.domain, args.layout))
     s = Settings(**{k: getattr(args, k) for k in Settings.__dataclass_fields__ if getattr(args, k) is not None})
     if s.task_features not in TASK_FEATURES:
         raise DomainError("--task-features", f"{s.task_features!r} is not one of {', '.join(TASK_FEATURES)}")

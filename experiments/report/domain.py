@@ -418,13 +418,14 @@ def capacity(ctx, layouts) -> list[str]:
             )
         )
     rows_ = [row for _, row in sorted(body, key=lambda b: b[0])]
+    scored = scored_checkpoints(name)
     todo = [
         f"- not run: `python -m learning.capacity --domain {ctx.domain} --layout {layout}`"
         for layout in layouts
         if read_finished(default_out(ctx.model(layout))) is None
     ]
     if not rows_:
-        return todo or ["No results yet."]
+        return (todo or ["No results yet."]) + scored
     return [
         *table(
             [
@@ -439,6 +440,54 @@ def capacity(ctx, layouts) -> list[str]:
             rows_,
         ),
         *([""] + todo if todo else []),
+        *scored,
+    ]
+
+
+def scored_checkpoints(name: str) -> list[str]:
+    """This domain's trained myopic checkpoints scored against Q* (`learning.capacity --score`): a table, or
+    nothing."""
+    body = []
+    for path in sorted(Path("results").glob("*capacity-score-*.json")):
+        r = read_finished(path)
+        if r is None or r.get("domain") != name or not r.get("scored"):
+            continue
+        sc = r["scored"]
+        body.append(
+            [
+                r["layout"],
+                f"{r['run']}, step {r.get('checkpoint_step') or 0:,}",
+                r.get("task_features", "arguments"),
+                sc["pairs"],
+                num(100 * sc["best_optimal"], 1),
+                num(sc["l1"], 2),
+                f"{num(sc['mean_q'], 2)} / {num(sc['mean_q_star'], 2)}",
+                num(100 * r["greedy"]["success_rate"], 0),
+                f"`{path}`",
+            ]
+        )
+    if not body:
+        return []
+    return [
+        "",
+        "The trained values scored on the same kind of labels (`learning.capacity --score CHECKPOINT`, myopic "
+        "checkpoints, labels with the run's discount and R_goal): a value that picks optimal actions but whose Q "
+        "sits far below Q* has not yet grown to the returns; one that picks wrong ones is wrongly shaped.",
+        "",
+        *table(
+            [
+                "layout",
+                "checkpoint",
+                "task encoding",
+                "(state, task) pairs",
+                "best action optimal %",
+                "L1 (RL units)",
+                "mean Q / mean Q*",
+                "greedy success %",
+                "file",
+            ],
+            body,
+        ),
     ]
 
 

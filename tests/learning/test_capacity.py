@@ -74,3 +74,39 @@ def test_the_command_writes_its_check_and_keeps_another_runs(monkeypatch, tmp_pa
     assert json.loads(out.read_text()) == r
     run(monkeypatch, *tiny, "--epochs", 3, "--force")
     assert [row["epoch"] for row in json.loads(out.read_text())["fit"]] == [1, 2, 3]
+
+
+def test_a_trained_checkpoint_is_scored_against_the_labels(blockworld, monkeypatch, tmp_path):
+    """--score: a myopic checkpoint's Q against labels made with its discount and R_goal; the file names its run
+    and the domain report lists it. An anticipatory checkpoint is refused (its Q is not the myopic Q*)."""
+    import torch
+
+    from experiments.report.domain import scored_checkpoints
+    from learning.encoding import Encoding
+    from learning.q.checkpoints import network_payload
+    from learning.q.network import build_network
+
+    enc = Encoding(blockworld, "arguments+objects")
+    torch.manual_seed(0)
+    cfg = {"horizon": "myopic", "layout": "grid7x7", "seed": 3, "gamma": GAMMA, "goal_reward": R_GOAL}
+    cfg["task_features"] = "arguments+objects"
+    ckpt, out = tmp_path / "m.pt", tmp_path / "results" / "blockworld-capacity-score-m.json"
+    out.parent.mkdir()
+    torch.save(network_payload(build_network(enc, 16), enc, {"config": cfg, "step": 1234}), ckpt)
+    run(monkeypatch, "--score", ckpt, "--states", 12, "--out", out)
+    r = json.loads(out.read_text())
+    labels = Labeller(blockworld, GAMMA, R_GOAL).visit(12, 0, 0.3, 20)
+    assert r["run"] == "myopic-grid7x7-seed3-features-objects" and r["checkpoint_step"] == 1234
+    assert r["scored"]["pairs"] == 12 and r["scored"]["mean_q_star"] == round(float(labels["q"].mean()), 4)
+    assert 0.0 <= r["scored"]["best_optimal"] <= 1.0 and r["greedy"]["tasks"] == 100
+    with pytest.raises(DomainError, match="settings"):
+        run(monkeypatch, "--score", ckpt, "--states", 14, "--out", out)
+    torch.save(network_payload(build_network(enc, 16), enc, {"config": {**cfg, "horizon": "anticipatory"}}), ckpt)
+    with pytest.raises(DomainError, match="trained for the anticipatory horizon: --score compares with the myopic Q"):
+        run(monkeypatch, "--score", ckpt, "--states", 12, "--out", out, "--force")
+    monkeypatch.chdir(tmp_path)
+    lines = scored_checkpoints("blockworld")
+    assert lines[-1].startswith(
+        "| grid7x7 | myopic-grid7x7-seed3-features-objects, step 1,234 | arguments+objects | 12 |"
+    )
+    assert scored_checkpoints("restaurant") == []
