@@ -31,6 +31,7 @@ FROM_INPUT = {
     "learning.export": ["attic"],
     "learning.gnn.bench": ["--model", "attic.pt", "--data", "attic"],
     "learning.values.rank": ["--value", "attic.pt", "--data", "attic"],
+    "planning.world.validate": ["attic"],
 }
 
 

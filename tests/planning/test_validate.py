@@ -1,4 +1,4 @@
-"""planning.external.validate: results files replayed by unified-planning, on a domain other than the restaurant
+"""planning.world.validate: results files replayed by unified-planning, on a domain other than the restaurant
 and on the restaurant; every kind of row (a plan, an already satisfied task, a failed task under each protocol)
 and every kind of disagreement it must catch."""
 
@@ -11,9 +11,9 @@ import pytest
 
 from experiments.random_policy import RandomPolicy
 from planning.domain.identity import identity
-from planning.external.validate import validate
 from planning.world.runner import play_sequence
 from planning.world.sequences import load
+from planning.world.validate import validate
 
 COMMITTED = "results/blockworld-clairvoyant-2-grid7x7.json"
 
@@ -119,7 +119,7 @@ def test_the_command_exits_1_on_a_disagreement(committed, tmp_path):
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps(data))
     r = subprocess.run(
-        [sys.executable, "-m", "planning.external.validate", COMMITTED, str(bad)], capture_output=True, text=True
+        [sys.executable, "-m", "planning.world.validate", COMMITTED, str(bad)], capture_output=True, text=True
     )
     assert r.returncode == 1
     lines = r.stdout.splitlines()

@@ -1,8 +1,8 @@
 """An independent check of results files: every plan they record, replayed by unified-planning.
 
-    python -m planning.external.validate results/blockworld-clairvoyant-2-grid7x7.json [FILE ...]
-    python -m planning.external.validate --all            # every results file under results/
-        [--domain DIR]  (default: domains/<the domain the file records>)
+    python -m planning.world.validate results/blockworld-clairvoyant-2-grid7x7.json [FILE ...]
+    python -m planning.world.validate --all            # every results file under results/
+        [--domain DIR]  (a file is read with domains/<the domain it records>, else with DIR)
 
 Per sequence the file played, the world starts from the sequence's reset seed (the domain's
 [[reset]] sampling) and the file's rows are replayed in order. unified-planning's
@@ -154,14 +154,20 @@ def validate(path, domain: str | None = None, validators: dict | None = None) ->
         raise DomainError(path, f"not a readable results file ({type(e).__name__})") from None
     if not isinstance(data, dict) or not isinstance(data.get("per_sequence"), list) or "per_task" not in data:
         return "skipped", 0, "not a results file of played sequences"
-    folder = domain or f"domains/{data.get('domain', 'restaurant')}"
-    if not Path(folder).is_dir():
-        return "skipped", 0, f"no domain folder {folder} (name it with --domain)"
-    key = (folder, data["layout"])
     validators = {} if validators is None else validators
-    if key not in validators:
-        validators[key] = Validator(compile_domain(folder, data["layout"]))
-    v = validators[key]
+    v = None
+    for folder in dict.fromkeys([f"domains/{data.get('domain', 'restaurant')}", domain or cli.DEFAULT_DOMAIN]):
+        key = (folder, data["layout"])
+        if key not in validators and Path(folder).is_dir():
+            try:
+                validators[key] = Validator(compile_domain(folder, data["layout"]))
+            except DomainError:  # not this folder's layout
+                validators[key] = None
+        if validators.get(key) and validators[key].model.name == data.get("domain", validators[key].model.name):
+            v = validators[key]
+            break
+    if v is None:
+        return "skipped", 0, f"no domain folder of {data.get('domain')!r} (name it with --domain)"
     other = mismatch(data, v.model)
     if other:
         return "skipped", 0, f"made with {other}"
@@ -184,10 +190,14 @@ def validate(path, domain: str | None = None, validators: dict | None = None) ->
 
 
 def main() -> None:
-    p = cli.parser(__doc__.splitlines()[0], domain=False, layout=False)
+    p = cli.parser(
+        __doc__.splitlines()[0],
+        layout=False,
+        out=None,
+        helps={"domain": "domain folder of files whose domain is not domains/<its name> (default: %(default)s)"},
+    )
     p.add_argument("files", nargs="*", help="results files")
     p.add_argument("--all", action="store_true", help="every results file under results/")
-    p.add_argument("--domain", help="domain folder (default: domains/<the domain each file records>)")
 
     def run():
         args = p.parse_args()
