@@ -48,6 +48,7 @@ LONG = {  # must start cleanly
     "experiments.select_beta",
     "experiments.sweep",
     "learning.capacity",
+    "planning.world.validate",
 }
 NEEDS_A_RUN = {  # their input is what another command makes over hours: checked on a missing input instead
     "learning.export": "a finished training run (python -m learning.dqn makes one in about two hours)",
