@@ -162,16 +162,21 @@ def best_is_optimal(q: np.ndarray, target: np.ndarray, pair: np.ndarray, tol: fl
     return float(np.mean(target[chosen] >= best_target[pair[chosen]] - tol))
 
 
+def pair_inputs(enc: Encoding, data: dict) -> tuple:
+    """(observations, valid-action masks) once per labelled (state, task) pair, and each row's pair."""
+    first = np.unique(data["pair"], return_index=True)[1]  # a row of each pair: its state and task
+    packed = enc.pack([data["state"][i] for i in first])
+    obs = torch.from_numpy(enc.observe(packed, data["task"][first]))
+    valid = torch.from_numpy(enc.valid_for(packed, data["task"][first]))
+    return obs, valid, torch.from_numpy(data["pair"])
+
+
 def fit(enc: Encoding, data: dict, s: Settings, log=print, progress: bool = False) -> tuple:
     """A fresh network fitted to the labels; (network, the per-epoch rows it logged)."""
     torch.manual_seed(s.seed)
     rng = np.random.default_rng(s.seed + 1)
     n_pairs = int(data["pair"].max()) + 1
-    first = np.unique(data["pair"], return_index=True)[1]  # a row of each pair: its state and task
-    packed = enc.pack([data["state"][i] for i in first])
-    pair_obs = torch.from_numpy(enc.observe(packed, data["task"][first]))
-    pair_valid = torch.from_numpy(enc.valid_for(packed, data["task"][first]))
-    of = torch.from_numpy(data["pair"])  # each row's pair: observations and validity once per pair
+    pair_obs, pair_valid, of = pair_inputs(enc, data)
     act, y = torch.from_numpy(data["action"]), torch.from_numpy(data["q"])
     held = rng.permutation(n_pairs)[: n_pairs // 5]
     test = np.isin(data["pair"], held)
@@ -214,16 +219,11 @@ def fit(enc: Encoding, data: dict, s: Settings, log=print, progress: bool = Fals
 
 def score(vf: ValueFunction, data: dict) -> dict:
     """A trained network's Q against the labels: best action optimal (share of pairs), L1, mean Q and Q*."""
-    enc, net = vf.enc, vf.net
-    first = np.unique(data["pair"], return_index=True)[1]
-    packed = enc.pack([data["state"][i] for i in first])
-    obs = torch.from_numpy(enc.observe(packed, data["task"][first]))
-    valid = torch.from_numpy(enc.valid_for(packed, data["task"][first]))
-    of = torch.from_numpy(data["pair"])
+    obs, valid, of = pair_inputs(vf.enc, data)
     with torch.inference_mode():
-        q = net.q_taken(obs[of], valid[of], torch.from_numpy(data["action"])).numpy().astype(np.float64)
+        q = vf.net.q_taken(obs[of], valid[of], torch.from_numpy(data["action"])).numpy().astype(np.float64)
     return {
-        "pairs": int(len(first)),
+        "pairs": len(obs),
         "best_optimal": round(best_is_optimal(q, data["q"], data["pair"]), 4),
         "l1": round(float(np.abs(q - data["q"]).mean()), 4),
         "mean_q": round(float(q.mean()), 4),

@@ -136,6 +136,7 @@ class Context:
     def __init__(self, domain: str = cli.DEFAULT_DOMAIN):
         self.domain = domain
         self._models: dict = {}
+        self._trainings: list | None = None
 
     def model(self, layout: str):
         if layout not in self._models:
@@ -144,16 +145,16 @@ class Context:
             self._models[layout] = compile_domain(self.domain, layout)
         return self._models[layout]
 
+    def trainings(self) -> list[tuple[Path, dict]]:
+        """Every Q-learning run's training file under results/ (`learning.export`), read once: (path, content)."""
+        if self._trainings is None:
+            found = ((p, read_finished(p)) for p in sorted(Path("results").glob("*training-*.json")))
+            self._trainings = [(p, d) for p, d in found if d is not None and "horizon" in d]
+        return self._trainings
+
     def training(self, checkpoint: str) -> dict | None:
-        """The training file `learning.export` wrote with this checkpoint (a results/*training-*.json that
-        names it), or None."""
-        if not hasattr(self, "_training"):
-            self._training = {}
-            for path in sorted(Path("results").glob("*training-*.json")):
-                d = read_finished(path)
-                if d is not None and "horizon" in d and d.get("checkpoint"):
-                    self._training[str(d["checkpoint"])] = d
-        return self._training.get(str(checkpoint))
+        """The training file `learning.export` wrote with this checkpoint (one that names it), or None."""
+        return next((d for _, d in reversed(self.trainings()) if d.get("checkpoint") == str(checkpoint)), None)
 
     def agent(self, run: Run):
         """The agent `experiments.evaluate` builds from the run's command line."""

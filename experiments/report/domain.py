@@ -505,9 +505,8 @@ def training(ctx, layouts) -> list[str]:
     encoding, steps trained of those configured, every greedy check and the training success."""
     name = ctx.model(layouts[0]).name
     body = []
-    for path in sorted(Path("results").glob("*training-*.json")):
-        d = read_finished(path)
-        if d is None or "horizon" not in d or d.get("domain") != name or d.get("layout") not in layouts:
+    for path, d in ctx.trainings():
+        if d.get("domain") != name or d.get("layout") not in layouts:
             continue
         cfg, at = d.get("config") or {}, d.get("at") or {}
         checks = d.get("greedy_checks") or [at[m]["greedy"] for m in sorted(at, key=int) if "greedy" in at[m]]

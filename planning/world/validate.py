@@ -25,7 +25,6 @@ results kept them), is named, not replayed. Exit status 1 if any file disagrees.
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
@@ -143,15 +142,12 @@ def check_sequence(v: Validator, seq, rows: list[dict], recorded: dict) -> str |
 def validate(path, domain: str | None = None, validators: dict | None = None) -> tuple[str, int, str]:
     """('ok' | 'skipped' | 'disagrees', the tasks replayed, a line saying why); see the module's docstring.
     `validators`: the Validator of each (domain folder, layout) met so far, reused across files."""
+    from planning.atomic import read_json
     from planning.domain.compiler import compile_domain
     from planning.domain.identity import mismatch
     from planning.world.sequences import load
 
-    path = Path(path)
-    try:
-        data = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise DomainError(path, f"not a readable results file ({type(e).__name__})") from None
+    data = read_json(path)
     if not isinstance(data, dict) or not isinstance(data.get("per_sequence"), list) or "per_task" not in data:
         return "skipped", 0, "not a results file of played sequences"
     validators = {} if validators is None else validators

@@ -296,6 +296,7 @@ def test_training_runs_are_reported_with_their_learning_curves(minimal_copy):
         },
     )
     write_json("results/minimal-training-gnn-faithful-grid-seed0.json", {"checkpoint": "g.pt", "domain": "minimal"})
+    ctx = Context("minimal")  # a context reads the training files once
     rows = [x for x in domain.training(ctx, ["grid"]) if x.startswith("| `")]
     assert rows == [
         "| `minimal-training-myopic-grid-seed0.json` | grid | myopic | 0 | arguments | 50,000 of 500,000 (unfinished) "
