@@ -255,7 +255,9 @@ def score_checkpoint(args, model) -> None:
     labeller = Labeller(model, cfg["gamma"], cfg["goal_reward"])
     data = labeller.visit(states, seed, Settings.detour, Settings.max_actions, not args.no_progress)
     scored = score(vf, data)
-    ev = greedy_evaluation(vf, model, 10_000, DEFAULTS.eval_tasks, cfg["gamma"], labeller.r_goal, labeller.scale)
+    # the run's own evaluation stream (learning.q.training: 10,000 + seed), so the figure is its trainer's check
+    stream_seed = 10_000 + int(cfg.get("seed", 0))
+    ev = greedy_evaluation(vf, model, stream_seed, DEFAULTS.eval_tasks, cfg["gamma"], labeller.r_goal, labeller.scale)
     print(
         f"{args.score} (step {payload.get('step'):,}): best action optimal on {scored['best_optimal']:.3f} of "
         f"{scored['pairs']} pairs, L1 {scored['l1']:.2f}, mean Q {scored['mean_q']:.2f} against Q* "
@@ -273,7 +275,7 @@ def score_checkpoint(args, model) -> None:
         "r_goal": labeller.r_goal,
         "gamma": cfg["gamma"],
         "scored": scored,
-        "greedy": {**ev, "tasks": DEFAULTS.eval_tasks, "stream_seed": 10_000},
+        "greedy": {**ev, "tasks": DEFAULTS.eval_tasks, "stream_seed": stream_seed},
         "seconds": round(time.perf_counter() - start, 1),
     }
     result["provenance"] = results_provenance(settings)

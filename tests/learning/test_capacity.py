@@ -85,6 +85,8 @@ def test_a_trained_checkpoint_is_scored_against_the_labels(blockworld, monkeypat
     from learning.encoding import Encoding
     from learning.q.checkpoints import network_payload
     from learning.q.network import build_network
+    from learning.q.value import value_function
+    from learning.reward import cost_scale
 
     enc = Encoding(blockworld, "arguments+objects")
     torch.manual_seed(0)
@@ -99,6 +101,10 @@ def test_a_trained_checkpoint_is_scored_against_the_labels(blockworld, monkeypat
     assert r["run"] == "myopic-grid7x7-seed3-features-objects" and r["checkpoint_step"] == 1234
     assert r["scored"]["pairs"] == 12 and r["scored"]["mean_q_star"] == round(float(labels["q"].mean()), 4)
     assert 0.0 <= r["scored"]["best_optimal"] <= 1.0 and r["greedy"]["tasks"] == 100
+    # the greedy figure is the run's own trainer check: its evaluation stream is 10,000 + its seed
+    vf = value_function(torch.load(ckpt, weights_only=True), blockworld, ckpt)
+    own = capacity.greedy_evaluation(vf, blockworld, 10_003, 100, GAMMA, R_GOAL, cost_scale(blockworld))
+    assert r["greedy"]["stream_seed"] == 10_003 and r["greedy"]["cost_per_task"] == own["cost_per_task"]
     with pytest.raises(DomainError, match="settings"):
         run(monkeypatch, "--score", ckpt, "--states", 14, "--out", out)
     torch.save(network_payload(build_network(enc, 16), enc, {"config": {**cfg, "horizon": "anticipatory"}}), ckpt)
