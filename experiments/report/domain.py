@@ -548,6 +548,33 @@ def training(ctx, layouts) -> list[str]:
     )
 
 
+BETA_TEXT = (
+    "The guided agents' cost slack β is chosen as the thesis chose it (Appendix A.1, `experiments.select_beta`): "
+    "each candidate played with one checkpoint on the development sequences 01, 03 and 06, the cheapest kept "
+    "(ties: the smaller). domain.toml `[search]` beta is the chosen value; the held-out seven are free of the choice."
+)
+
+
+def beta_selection(ctx, layouts) -> list[str]:
+    """This domain's β selections (results/beta-selection-*.json) on `layouts`: each candidate's development cost."""
+    name = ctx.model(layouts[0]).name
+    body = []
+    for path in sorted(Path("results").glob("beta-selection-*.json")):
+        r = read_finished(path)
+        if r is None or r.get("domain") != name or r.get("layout") not in layouts:
+            continue
+        chosen = r.get("chosen_beta")
+        cells = [
+            f"{'**' if c['beta'] == chosen else ''}β {c['beta']:g}: {num(c['cost_per_task'], 1)}"
+            f" ({num(100 * c['success_rate'], 0)}%){'**' if c['beta'] == chosen else ''}"
+            for c in r.get("candidates", [])
+        ]
+        body.append([r["layout"], f"`{Path(r['checkpoint']).name}`", "; ".join(cells), f"{chosen:g}", f"`{path}`"])
+    if not body:
+        return [f"No β selection of {name} yet (`python -m experiments.select_beta --domain ... --checkpoint ...`)."]
+    return table(["layout", "checkpoint", "development cost/task (success) per candidate", "chosen β", "file"], body)
+
+
 PUBLISHED_KEYS = ("source", "what", "reduction", "layout", "ours", "protocol")
 """The keys of a domain.toml [[published]] entry (the module `published`)."""
 
@@ -662,6 +689,12 @@ def report(layouts, ctx, command: str) -> str:
         TRAINING_TEXT,
         "",
         *training(ctx, layouts),
+        "",
+        "## The search's β, chosen on the development split",
+        "",
+        BETA_TEXT,
+        "",
+        *beta_selection(ctx, layouts),
         "",
         "## Held-out seven against development three",
         "",

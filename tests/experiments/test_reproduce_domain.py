@@ -316,3 +316,28 @@ def test_training_runs_are_reported_with_their_learning_curves(minimal_copy):
     write_json("results/minimal-training-myopic-grid-seed0.json", {**figures, "steps": 500_000})
     (loaded,) = load_rows([row], Context("minimal"))["myopic-rl-greedy"].loaded
     assert not any("unfinished" in f for f in loaded.flags), loaded.flags
+
+
+def test_the_beta_selection_is_reported_with_every_candidate(minimal_copy):
+    """Each β selection of this domain is a row: every candidate's development cost and success, the chosen one
+    in bold; another domain's selection is left out."""
+    ctx = Context("minimal")
+    assert domain.beta_selection(ctx, ["grid"])[0].startswith("No β selection of minimal yet")
+    sel = {
+        "domain": "minimal",
+        "layout": "grid",
+        "checkpoint": "checkpoints/minimal-rl-anticipatory-grid-seed0.pt",
+        "development": [1, 3, 6],
+        "candidates": [
+            {"beta": 1.25, "cost_per_task": 812.345, "success_rate": 1.0},
+            {"beta": 3.0, "cost_per_task": 799.0, "success_rate": 0.98},
+        ],
+        "chosen_beta": 3.0,
+    }
+    write_json("results/beta-selection-minimal-rl-anticipatory-grid-seed0.json", sel)
+    write_json("results/beta-selection-rl-anticipatory-two-room-seed0.json", {**sel, "domain": "restaurant"})
+    rows = [x for x in domain.beta_selection(ctx, ["grid"]) if x.startswith("| grid")]
+    assert rows == [
+        "| grid | `minimal-rl-anticipatory-grid-seed0.pt` | β 1.25: 812.3 (100%); **β 3: 799.0 (98%)** | 3 "
+        "| `results/beta-selection-minimal-rl-anticipatory-grid-seed0.json` |"
+    ]
