@@ -5,7 +5,8 @@
 
 --kind train (the default): one `learning.dqn` run per point of the grid layouts × horizons ×
 seeds × any other training setting given as a list (`--gamma 0.95,0.97`; every
-`learning.dqn` flag is accepted, a single value applies to all runs). Each run is a
+`learning.dqn` flag is accepted, a single value applies to all runs; a discount other than Table A.2's
+is named even alone, as in a list). Each run is a
 work item: it trains in RUNS/<domain>-<layout>-<horizon>-seed<seed>[-<setting><value>...]
 (resuming from its last.pt, as `learning.dqn` does) and its outcome (steps, tasks, best greedy
 evaluation, last metrics row) goes to OUT.parts/<run>.json, with its provenance, as soon as
@@ -57,6 +58,7 @@ from .registry import agent_class, agent_options
 from .workers import Job, play_over_workers
 
 GRID = ("layout", "horizon", "seed")  # the axes every training sweep has
+NAMED_ALONE = ("gamma",)  # settings a run's names carry even when given one value, where it is not Table A.2's
 TIMING_KEYS = ("steps_per_s", "updates_per_s")  # left out of the outcome: they differ run to run
 
 
@@ -182,16 +184,20 @@ def train_items(args, grid: dict, settings: dict) -> tuple[list, list, list]:
     checks its own and every name made from them checked to name a file in its folder: a bad value
     (`--eps-schedule ../../x`) stops with a one-line error before anything is written."""
     from learning.export import rl_name
-    from learning.q.training import file_in, file_name, run_name
+    from learning.q.training import Config, file_in, file_name, run_name
 
     axes = list(grid)
     points = [dict(zip(axes, combo)) for combo in itertools.product(*grid.values())]
     varied = [a for a in axes if a not in GRID and len(grid[a]) > 1]
+    # a discount given alone is named as in a list of them: `--gamma 0.9` trains where `--gamma 0.9,0.99` puts
+    # its γ = 0.9 runs (Table A.5's names), not into the default run's folder under the default's file names
+    alone = [a for a in NAMED_ALONE if a in settings and settings[a] != getattr(Config, a)]
     domain_name = file_name(Path(args.domain).resolve().name, "--domain", "folder name")
     items, names = [], []
     for p in points:
         # a run with a target bound keeps its files apart under learning.dqn's own suffix
         extra = "".join(f"-{a}{p[a]}" for a in varied if a != "target_bound")
+        extra += "".join(f"-{a}{settings[a]}" for a in alone)
         name = run_name(domain_name, {**settings, **p}, extra)
         items.append(
             {

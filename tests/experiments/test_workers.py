@@ -282,6 +282,35 @@ def test_a_training_sweeps_summary_is_named_after_its_grid():
     )
 
 
+def test_a_discount_given_alone_is_named_as_in_a_list(tiny, tmp_path, monkeypatch):
+    """`--gamma 0.9` names its run, checkpoint and results as `--gamma 0.9,0.99` names its γ = 0.9 point, so it
+    never trains into the default run's folder; Table A.2's γ given alone leaves the names as they are."""
+    import argparse
+
+    from experiments.sweep import train_items
+
+    monkeypatch.chdir(tmp_path)
+    args = argparse.Namespace(
+        domain=str(tiny), runs="runs/dqn", deploy=True, checkpoints="ck", results="res", sequences="0-1", force=False
+    )
+    grid = {"layout": ["grid"], "horizon": ["anticipatory"], "seed": [0]}
+
+    def named(settings, **axes):
+        _, names, items = train_items(args, {**grid, **axes}, settings)
+        return [(n, it["deploy"]["checkpoint"], it["deploy"]["greedy"]) for n, it in zip(names, items)]
+
+    alone = named({"gamma": 0.9})
+    assert alone == [
+        (
+            "tiny-grid-anticipatory-seed0-gamma0.9",
+            "ck/minimal-rl-anticipatory-grid-seed0-gamma0.9.pt",
+            "res/minimal-rl-greedy-anticipatory-grid-seed0-gamma0.9.json",
+        )
+    ]
+    assert named({}, gamma=[0.9, 0.99])[0] == alone[0]
+    assert named({"gamma": 0.97})[0][0] == "tiny-grid-anticipatory-seed0" == named({})[0][0]
+
+
 def test_a_deployed_sweep_exports_each_run_and_plays_it_greedily(tiny, tmp_path):
     """--deploy: each finished run's compact checkpoint, key figures and rl-greedy results, named as
     learning.export and experiments.evaluate name them; the results file is the greedy evaluation's."""
