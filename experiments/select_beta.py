@@ -25,6 +25,7 @@ from planning.atomic import write_json
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 from planning.parallel import results_provenance
+from planning.world.results import default_out
 from planning.world.runner import evaluate, improvement
 from planning.world.sequences import COUNT, DEVELOPMENT
 
@@ -71,7 +72,7 @@ def main() -> None:
     rows = []
     for beta in betas:
         agent = ValueGuidedPlanner(model, args.checkpoint, beta=beta, budget=args.budget)
-        path = f"{args.results}/{agent.run_name}.json"
+        path = default_out(agent, model, args.results)
         r = evaluate(model, agent, list(DEVELOPMENT), path, reference=reference_path(model))
         dev = split_costs(model, r)["development"]  # a finished file may hold more sequences
         rows.append(
@@ -94,7 +95,7 @@ def main() -> None:
     print(f"chosen β = {best['beta']:g}")
     if not args.no_final:
         agent = ValueGuidedPlanner(model, args.checkpoint, beta=best["beta"], budget=args.budget)
-        final = f"{args.results}/{agent.run_name}.json"
+        final = default_out(agent, model, args.results)
         r = evaluate(model, agent, list(range(COUNT)), final, reference=reference_path(model))
         result["final"] = {
             "file": final,

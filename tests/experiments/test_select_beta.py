@@ -24,3 +24,41 @@ def test_split_costs_give_the_improvement_as_a_number(two_room):
     half = [{**r, "cost": r["cost"] / 2} for r in ref]
     assert s["held-out"]["improvement_vs_myopic"] == 0.0
     assert split_costs(two_room, {"per_sequence": half})["development"]["improvement_vs_myopic"] == 0.5
+
+
+def test_the_candidates_files_are_named_as_the_agents_own(tmp_path, monkeypatch):
+    """On a domain other than the restaurant every β's development file starts with the domain's name, as
+    `experiments.evaluate` names the guided agent's files (`planning.world.results.default_out`)."""
+    import json
+    import shutil
+    import sys
+    from pathlib import Path
+
+    import torch
+
+    from experiments import select_beta
+    from learning.encoding import Encoding
+    from learning.q.checkpoints import network_payload
+    from learning.q.network import build_network
+    from planning import cli
+    from planning.atomic import write_json
+    from planning.domain.compiler import compile_domain
+    from planning.world.sequences import generate, sequence_dir
+
+    root = Path(__file__).resolve().parents[2]
+    shutil.copytree(root / "domains" / "minimal", tmp_path / "minimal", ignore=shutil.ignore_patterns("sequences"))
+    monkeypatch.chdir(tmp_path)
+    model = compile_domain("minimal", "grid")
+    for rec in generate(model, length=4):
+        write_json(sequence_dir(model) / f"seq-{rec['id']:02d}.json", rec)
+    enc = Encoding(model)
+    torch.manual_seed(0)
+    cfg = {"horizon": "anticipatory", "layout": "grid", "seed": 0, "gamma": 0.97, "goal_reward": 10.0}
+    torch.save(network_payload(build_network(enc, 8), enc, {"config": cfg}), "v.pt")
+    argv = ["select_beta", "--domain", "minimal", "--checkpoint", "v.pt", "--betas", "1,2", "--budget", "50"]
+    monkeypatch.setattr(sys, "argv", [*argv, "--no-final"])
+    cli.run(select_beta.main)
+    chosen = json.loads(Path("results/beta-selection-v.json").read_text())
+    files = [c["file"] for c in chosen["candidates"]]
+    assert [Path(f).name.startswith("minimal-rl-guided-") for f in files] == [True, True]
+    assert all(Path(f).is_file() for f in files) and chosen["chosen_beta"] in (1.0, 2.0)
