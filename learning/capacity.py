@@ -41,7 +41,7 @@ from tqdm import tqdm
 from learning.encoding import TASK_FEATURES, Encoding
 from learning.export import domain_prefix
 from learning.q.network import build_network
-from learning.q.training import Config, greedy_evaluation
+from learning.q.training import Config, eval_stream_seed, greedy_evaluation
 from learning.q.value import ValueFunction
 from learning.reward import cost_scale, goal_reward
 from planning import cli
@@ -255,8 +255,8 @@ def score_checkpoint(args, model) -> None:
     labeller = Labeller(model, cfg["gamma"], cfg["goal_reward"])
     data = labeller.visit(states, seed, Settings.detour, Settings.max_actions, not args.no_progress)
     scored = score(vf, data)
-    # the run's own evaluation stream (learning.q.training: 10,000 + seed), so the figure is its trainer's check
-    stream_seed = 10_000 + int(cfg.get("seed", 0))
+    # the run's own evaluation stream, so the figure is its trainer's check
+    stream_seed = eval_stream_seed(int(cfg.get("seed", 0)))
     ev = greedy_evaluation(vf, model, stream_seed, DEFAULTS.eval_tasks, cfg["gamma"], labeller.r_goal, labeller.scale)
     print(
         f"{args.score} (step {payload.get('step'):,}): best action optimal on {scored['best_optimal']:.3f} of "
@@ -321,7 +321,7 @@ def main() -> None:
     ev = greedy_evaluation(
         ValueFunction(net, enc, s.gamma),
         model,
-        10_000 + s.seed,
+        eval_stream_seed(s.seed),
         DEFAULTS.eval_tasks,
         s.gamma,
         labeller.r_goal,
@@ -340,7 +340,7 @@ def main() -> None:
         "r_goal": labeller.r_goal,
         "cost_scale": labeller.scale,
         "fit": history,
-        "greedy": {**ev, "tasks": DEFAULTS.eval_tasks, "stream_seed": 10_000 + s.seed},
+        "greedy": {**ev, "tasks": DEFAULTS.eval_tasks, "stream_seed": eval_stream_seed(s.seed)},
         "seconds": {"labelling": round(label_s, 1), "total": round(time.perf_counter() - start, 1)},
     }
     result["provenance"] = results_provenance(asdict(s))

@@ -322,6 +322,12 @@ def demonstrations(
     return demos, np.array(returns)
 
 
+def eval_stream_seed(seed: int) -> int:
+    """The seed of a run's own greedy-check stream: apart from its training stream (seeded by `seed`), and the
+    same for every tool that replays the trainer's check (`learning.capacity`)."""
+    return 10_000 + seed
+
+
 def greedy_evaluation(
     vf: ValueFunction, model, seed: int, n_tasks: int, gamma: float, r_goal: float, scale: float, task_stream=None
 ) -> dict:
@@ -608,7 +614,7 @@ class Trainer:
         r = greedy_evaluation(
             ValueFunction(self.actor, self.enc),
             self.model,
-            10_000 + self.cfg.seed,
+            eval_stream_seed(self.cfg.seed),
             self.cfg.eval_tasks,
             self.cfg.gamma,
             self.r_goal,
