@@ -69,10 +69,12 @@ def test_report_only_on_the_minimal_domain(minimal_copy, monkeypatch, capsys):
         "--out results/minimal-myopic-oracle-grid.json`"
     ) in text
     assert (
-        "train: `python -m learning.dqn --domain minimal --layout grid --horizon anticipatory --seed 0 && "
-        "python -m learning.export runs/dqn/minimal-grid-anticipatory-seed0`"
+        "`for N in 0 4 8; do python -m learning.dqn --domain minimal --layout grid --horizon anticipatory --seed $N && "
+        "python -m learning.export runs/dqn/minimal-grid-anticipatory-seed$N && "
     ) in text
     assert "| Myopic oracle (Fast Downward) | not run" in text
+    # a learned value is expected with three seeds before any is trained
+    assert "| Anticipatory RL (guided) | not run ([commands](#runs-not-yet-made)) | — | — | 0 of 3 | — |" in text
 
 
 def test_a_played_row_is_reported(minimal_copy, monkeypatch):
@@ -110,7 +112,8 @@ def test_rl_rows_follow_the_domains_task_encoding(minimal_copy):
     toml.write_text(toml.read_text().replace("[training]\n", '[training]\ntask_features = "arguments+objects"\n', 1))
     ctx = Context("minimal")
     (row,) = [r for r in domain.rows(ctx, "grid") if r.key == "myopic-rl-greedy"]
-    (run,) = row.runs
+    assert [run.seed for run in row.runs] == list(domain.SEEDS)  # expected before any is trained
+    run = row.runs[0]
     assert run.out == "results/minimal-rl-greedy-myopic-grid-seed0-features-objects.json"
     assert run.checkpoint == "checkpoints/minimal-rl-myopic-grid-seed0-features-objects.pt"
     assert run.train.endswith("python -m learning.export runs/dqn/minimal-grid-myopic-seed0-features-objects")
@@ -310,11 +313,11 @@ def test_training_runs_are_reported_with_their_learning_curves(minimal_copy):
         write_json(sequence_dir(model) / f"seq-{rec['id']:02d}.json", rec)
     (row,) = [r for r in domain.rows(ctx, "grid") if r.key == "myopic-rl-greedy"]
     reproduce.run_missing([row], ctx, ids=[0], progress=False)
-    (loaded,) = load_rows([row], ctx)["myopic-rl-greedy"].loaded
-    assert loaded.used
+    loaded, *others = load_rows([row], ctx)["myopic-rl-greedy"].loaded
+    assert loaded.used and [x.status for x in others] == ["no checkpoint", "no checkpoint"]  # seeds 4 and 8
     assert "its checkpoint comes from an unfinished run (50,000 of 500,000 steps trained)" in loaded.flags
     write_json("results/minimal-training-myopic-grid-seed0.json", {**figures, "steps": 500_000})
-    (loaded,) = load_rows([row], Context("minimal"))["myopic-rl-greedy"].loaded
+    loaded = load_rows([row], Context("minimal"))["myopic-rl-greedy"].loaded[0]
     assert not any("unfinished" in f for f in loaded.flags), loaded.flags
 
 
