@@ -47,13 +47,14 @@ def config_summary(cfg: dict) -> str:
 
 
 def files_table(results: dict) -> list[str]:
-    """One row per results file a row reads, used or not."""
-    body = []
+    """One row per results file a row reads, used or not (a file two rows read, once)."""
+    body, seen = [], set()
     for rows in results.values():
         for rr in rows.values():
             for x in rr.loaded:
-                if x.data is None:
+                if x.data is None or x.run.out in seen:
                     continue
+                seen.add(x.run.out)
                 prov = x.data.get("provenance") or {}
                 commit = (
                     f"`{prov['commit'][:10]}`"
@@ -98,8 +99,9 @@ def files_table(results: dict) -> list[str]:
     )
 
 
-def closing(results: dict) -> list[str]:
-    """The last two sections of every report: the runs not yet made, and the provenance of the results files."""
+def closing(results: dict, sections: dict | None = None) -> list[str]:
+    """The last two sections of every report: the runs not yet made, and the provenance of the results files
+    (those of `results` and of the `sections` that list their own missing runs, such as the task streams')."""
     return [
         "## Runs not yet made",
         "",
@@ -107,6 +109,6 @@ def closing(results: dict) -> list[str]:
         "",
         "## Provenance of the results files",
         "",
-        *files_table(results),
+        *files_table({**results, **(sections or {})}),
         "",
     ]

@@ -275,9 +275,8 @@ def missing(results: dict) -> list[str]:
     return missing_runs(named)
 
 
-def section(ctx, layouts, folder: Path) -> list[str]:
-    """The report's section on task streams (markdown lines), its figures drawn into `folder`."""
-    results = load(ctx, layouts)
+def section(ctx, results: dict, folder: Path) -> list[str]:
+    """The report's section on task streams (markdown lines) from `load`'s rows, its figures drawn into `folder`."""
     drawn = figure(ctx, results, folder)
     lines = [
         "Beyond the thesis (its limitations L1 and L4): the task distribution learned online and conditioned on "

@@ -278,7 +278,8 @@ def report(layouts, ctx: Context, out: Path, command: str) -> str:
                 ]
     lines += ["## Table A.5: the discount sweep (optional)", "", *tables.discount_table(prep), ""]
     lines += ["## Task streams: unknown, drifting and correlated (beyond the thesis)", ""]
-    lines += streams.section(ctx, layouts, folder)
+    stream_results = streams.load(ctx, layouts)
+    lines += streams.section(ctx, stream_results, folder)
     ckpts = [
         str(p)
         for layout in layouts
@@ -290,7 +291,7 @@ def report(layouts, ctx: Context, out: Path, command: str) -> str:
     ]
     for title, body in reference.everything(layouts, ckpts, sha256).items():
         lines += [f"## {title}", "", *body, ""]
-    lines += provenance.closing(results)
+    lines += provenance.closing(results, stream_results)
     if NOTES.is_file():
         lines += [
             "## Appendix: hand-kept notes (not generated)",

@@ -247,6 +247,12 @@ def test_report_only_from_the_committed_results(tmp_path, monkeypatch):
         assert "| not run" in row and "--agent gnn-native" in text
     for png in ("fig-5-1b-minimal-example.png", "fig-5-3-greedy-vs-guided.png", "fig-5-4-improvement.png"):
         assert (tmp_path / "figures" / png).is_file() and f"(figures/{png})" in text
+    # the task streams' files have their provenance rows too (the † of a stream figure points there), each once
+    prov = text.split("## Provenance of the results files")[1].splitlines()
+    names = [line.split(" | ")[0] for line in prov if line.startswith("| `")]
+    assert len(names) == len(set(names))
+    for f in (ROOT / "results").glob("rl-guided-anticipatory-three-room-seed*-stream-cook-then-clean*.json"):
+        assert f"| `{f.name}`" in names
 
 
 def test_training_curves_leave_out_runs_in_progress(tmp_path, monkeypatch):
