@@ -84,7 +84,8 @@ def rl_suffix(model) -> str:
     return bound_suffix({"task_features": domain_task_features(model)})
 
 
-SEEDS = (0, 4, 8)  # the seeds a domain's learned values are expected with (at least three); more are reported where trained
+# the seeds a domain's learned values are expected with (at least three); more are reported where trained
+SEEDS = (0, 4, 8)
 
 
 def rl_seeds(domain: str, layout: str, horizon: str, suffix: str = "") -> list[int]:
