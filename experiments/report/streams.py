@@ -30,11 +30,9 @@ from pathlib import Path
 import numpy as np
 
 from experiments.report.data import RowResult, improvement, load_rows
-from experiments.report.specs import Row, Run, rl_checkpoint, rl_run_dir, rl_train
+from experiments.report.specs import LEAST_SEEDS, Row, Run, rl_checkpoint, rl_run_dir, rl_train
 from experiments.report.tables import num, pct, pm, share, statistics, table
 
-SEEDS = (0, 4, 8)
-"""Checkpoint seeds per estimator row: three, the issue's least (the thesis's agent keeps its own seeds)."""
 FORGET = 0.95
 """The forgetting estimator's decay per task: counts weigh about the last 1 / (1 − 0.95) = 20 tasks, well inside
 the restaurant's 25-task phases, so the estimate can settle after a change within a sequence."""
@@ -155,7 +153,7 @@ def rows(layout: str, stream: str, kind: str) -> list[Row]:
                     f"{prefix}-{label}",
                     f"Anticipatory RL (guided), {how} {label}",
                     layout,
-                    tuple(run(layout, stream, name, forget, s) for s in SEEDS),
+                    tuple(run(layout, stream, name, forget, s) for s in LEAST_SEEDS),
                     seeded=True,
                     template=run(layout, stream, name, forget, "$N"),
                 )
