@@ -31,6 +31,18 @@ proven mutex, `oracles.labelling.ReachablePairs`), both labelled exactly; per
 value, the mean credit it gives the atom, [V_AP(with) - V_AP(without)] times
 cost_scale in PDDL units, against the exact one-task saving C_AP(without) -
 C_AP(with), and the share of pairs it ranks the prepared copy higher.
+
+`--stream NAME` asks whether conditioning V_AP on a stream's next-task distribution ranks states
+better (`planning.world.streams`: a Markov agent that does not beat the i.i.d. one, why?). Per
+context of the stream (a Markov stream: after each task type, and at a reset; a drifting one: each
+phase) with its next-task distribution P_c, the exact conditional C_AP(s | c) = Σ_τ P_c(τ)
+cost*(s, τ) (the dataset's per-task optimal costs) is ranked against:
+
+- the exact C_AP under the layout's P (the thesis's i.i.d. assumption): how much conditioning
+  reorders the states at all, however good the value (Spearman 1: not at all);
+- per value, its V_AP with P_c (`set_distribution`, as a search deployed with that estimator
+  scores terminal states) and its V_AP with P: conditioning the value is worth it only where the
+  conditioned one ranks by C_AP(s | c) better than the unconditioned one.
 """
 
 from __future__ import annotations
@@ -167,6 +179,89 @@ def credit(values: list, data: str, domain: str, atom: str, n: int = 150, seed: 
     return out
 
 
+def dataset_costs(data) -> np.ndarray:
+    """(states, tasks) the exact optimal cost of each task instance from each labelled state of a
+    learning.gnn_dataset folder (its graphs' `costs`), inf where the task has no plan."""
+    from learning.gnn.dataset import load_dataset
+
+    ds = load_dataset(data)
+    costs = np.stack([ds[i].costs[0].numpy() for i in range(len(ds))]).astype(float)
+    costs[costs < 0] = np.inf
+    return costs
+
+
+def stream_contexts(stream) -> list[tuple[str, np.ndarray]]:
+    """(name, (instances,) next-task distribution) of each context in which a stream's P(next task) differs:
+    a Markov stream's start and its row after each type, a drifting stream's phases."""
+    if stream.kind == "markov":
+        rows = [("at a reset", stream.probabilities(None))]
+        for k, ty in enumerate(stream.types):
+            first = next(t for t in stream.model.tasks if stream.type_of[t.index] == k)
+            rows.append((f"after {ty}", stream.probabilities(first)))
+        return rows
+    if stream.kind == "drift":
+        return [(f"from task {f}", stream.probabilities(None, f)) for f, _ in stream.phases]
+    raise DomainError(
+        "--stream", f"{stream.name} is the i.i.d. stream: its one distribution is P (rank without --stream)"
+    )
+
+
+def conditional(values: list, data: str, domain: str, stream_name: str) -> dict:
+    """The `--stream` figures of the module's docstring, per context of the stream and per value."""
+    from learning.gnn.dataset import read_meta
+    from learning.gnn.model import check_made_for
+    from planning.world.streams import stream as stream_of
+
+    meta = read_meta(data)
+    model = compile_domain(domain, meta["layout"])
+    check_made_for(Path(data) / "meta.json", meta, model, "dataset")
+    stream = stream_of(model, stream_name)
+    contexts = stream_contexts(stream)
+    costs = dataset_costs(data)
+    if costs.shape != (len(meta["atoms"]), len(model.tasks)):
+        raise DomainError(data, f"its graphs hold {costs.shape} task costs, not one per state and task of the layout")
+    p = np.asarray(model.tasks.probabilities, dtype=float)
+    p /= p.sum()
+    keep = np.isfinite(costs[:, p > 0]).all(1)  # states from which every task of the support has a plan
+    costs = np.where(np.isfinite(costs), costs, 0.0)[keep]
+    states = [model.state_from_atoms(a) for a, k in zip(meta["atoms"], keep) if k]
+    c_p = np.round(costs @ p, 9)  # sums of integer costs: equal ones stay ties, not round-off apart
+    loaded = []
+    for value in values:
+        name = str(value) if isinstance(value, (str, Path)) else type(value).__name__
+        loaded.append((name, load_value(str(value), model) if isinstance(value, (str, Path)) else value))
+    unconditioned = []
+    for _, value in loaded:
+        if hasattr(value, "set_distribution"):
+            value.set_distribution(None)
+        unconditioned.append(np.asarray(value.v_ap(states), dtype=float))
+    rows = []
+    for context, q in contexts:
+        c_q = np.round(costs @ q, 9)
+        row = {
+            "context": context,
+            "next_types": {ty: round(float(q[stream.type_of == k].sum()), 4) for k, ty in enumerate(stream.types)},
+            "mean_c_ap": round(float(c_q.mean()), 2),
+            "exact_under_p": agreement(-c_p, c_q),
+            "values": [],
+        }
+        for (name, value), v_p in zip(loaded, unconditioned):
+            entry = {"value": name, "unconditioned": agreement(v_p, c_q), "conditioned": None}
+            if hasattr(value, "set_distribution"):
+                value.set_distribution(q)
+                entry["conditioned"] = agreement(np.asarray(value.v_ap(states), dtype=float), c_q)
+                value.set_distribution(None)
+            row["values"].append(entry)
+        rows.append(row)
+    return {
+        "stream": stream.name,
+        "kind": stream.kind,
+        "states": len(states),
+        "dataset": meta.get("config"),
+        "contexts": rows,
+    }
+
+
 def main() -> None:
     p = cli.parser(
         __doc__.splitlines()[0],
@@ -187,6 +282,9 @@ def main() -> None:
 
     p.add_argument("--credit", default=None, help="an atom: what each value credits it with (see the module)")
     p.add_argument("--credit-states", type=int, default=150, help="pairs of states for --credit (default: 150)")
+    p.add_argument(
+        "--stream", default=None, help="a stream of domain.toml: rank by its conditional C_AP (see the module)"
+    )
 
     def run():
         args = p.parse_args()
@@ -212,6 +310,21 @@ def main() -> None:
                 print(
                     f"  {row['value']}: credit mean {row['credit_mean']:.1f}, median {row['credit_median']:.1f}; "
                     f"ranks the prepared state higher on {row['ranks_prepared_higher']:.0%}"
+                )
+        if args.stream is not None:
+            c = r["conditional"] = conditional(args.value, args.data, args.domain, args.stream)
+            print(
+                f"stream {c['stream']} over {c['states']} states, Spearman with the context's exact C_AP: "
+                "the exact C_AP under P | per value, V_AP with P / V_AP with the context's P"
+            )
+            for row in c["contexts"]:
+                print(
+                    f"  {row['context']}: exact under P {row['exact_under_p']['spearman']}"
+                    + "".join(
+                        f" | {e['value']}: {e['unconditioned']['spearman']} / "
+                        f"{'n/a' if e['conditioned'] is None else e['conditioned']['spearman']}"
+                        for e in row["values"]
+                    )
                 )
         write_json(out, {**r, "provenance": results_provenance({})})
         print(f"wrote {out}")

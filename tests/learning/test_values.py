@@ -312,3 +312,55 @@ def test_value_credit_of_an_atom_against_its_exact_saving(two_room, minimal, tmp
         credit([ZeroValue()], str(tmp_path / "grid"), "domains/minimal", "(robot-at b)")
     with pytest.raises(DomainError, match="not a reachable fluent atom"):
         credit([ZeroValue()], str(tmp_path / "grid"), "domains/minimal", "(robot-at moon)")
+
+
+class _ExactOneTaskUnder(_ExactOneTask):
+    """-C_AP / cost_scale under whatever next-task distribution it is given (`set_distribution`)."""
+
+    def __init__(self, model):
+        super().__init__(model)
+        self.q = None
+
+    def set_distribution(self, probabilities):
+        self.q = None if probabilities is None else np.asarray(probabilities, dtype=float)
+
+    def v_ap(self, states):
+        from oracles.labelling import expected_cost
+
+        p = self.q if self.q is not None else np.asarray(self.model.tasks.probabilities, dtype=float)
+        c = np.array([expected_cost(p / p.sum(), self.labeller.label(s).costs) for s in states])
+        return -np.round(c, 9) / self.model.cost_scale
+
+
+def test_value_rank_under_a_markov_stream_conditions_on_each_context(two_room, tmp_path):
+    """--stream: per context of cook-then-clean (its start, after each type), the exact C_AP under the layout's
+    P against the conditional one, and per value its V_AP with P and with the context's P. A value that is the
+    exact C_AP under the distribution it is given ranks perfectly once conditioned and, unconditioned, exactly
+    as the exact C_AP under P does; a value with no set_distribution has no conditioned figure. The i.i.d.
+    stream has no contexts: a one-line error."""
+    from learning.gnn.dataset import save_dataset
+    from learning.values.rank import conditional
+    from oracles.labelling import Labeller
+    from planning.value import ZeroValue
+
+    states = list(dict.fromkeys(two_room.random_walk_states(40, seed=3)))[:14]
+    labeller = Labeller(two_room)
+    labels = {s: (lab.c_ap, [int(c) for c in lab.costs], lab.seconds) for s in states for lab in [labeller.label(s)]}
+    save_dataset(tmp_path / "data", two_room, states, labels, {})
+    r = conditional(
+        [_ExactOneTaskUnder(two_room), ZeroValue()], str(tmp_path / "data"), "domains/restaurant", "cook-then-clean"
+    )
+    assert (r["stream"], r["kind"], r["states"]) == ("cook-then-clean", "markov", len(states))
+    names = [row["context"] for row in r["contexts"]]
+    assert names[0] == "at a reset" and "after serve-water" in names and len(names) == 7
+    after_water = r["contexts"][names.index("after serve-water")]
+    assert after_water["next_types"]["serve-water"] == pytest.approx(0.6)
+    assert sum(after_water["next_types"].values()) == pytest.approx(1.0)
+    for row in r["contexts"]:
+        exact, zero = row["values"]
+        assert exact["conditioned"]["spearman"] == pytest.approx(1.0)
+        assert exact["unconditioned"]["spearman"] == pytest.approx(row["exact_under_p"]["spearman"])
+        assert zero["conditioned"] is None
+    assert min(row["exact_under_p"]["spearman"] for row in r["contexts"]) < 1.0  # conditioning reorders states
+    with pytest.raises(DomainError, match="i.i.d. stream"):
+        conditional([ZeroValue()], str(tmp_path / "data"), "domains/restaurant", "iid")
