@@ -273,6 +273,63 @@ def missing(results: dict) -> list[str]:
     return missing_runs(named)
 
 
+def _dataset_command(c: dict, d: dict) -> str:
+    """ ", the states from `python -m learning.gnn_dataset ...`" for a ranking whose dataset recorded its settings."""
+    cfg = c.get("dataset") or {}
+    if not cfg.get("n_states"):
+        return ""
+    extra = f" --augmented --n-prepared {cfg['n_prepared']}" if cfg.get("augmented") else ""
+    extra += f" --seed {cfg['seed']}" if cfg.get("seed") else ""
+    return (
+        f"; the states from `python -m learning.gnn_dataset --layout {cfg['layout']} --n-states {cfg['n_states']}"
+        f"{extra} --out {d['data']}`"
+    )
+
+
+def ranking(layout: str, stream: str) -> list[str]:
+    """How much conditioning on the stream can reorder states, and how the values rank by the conditional
+    C_AP with and without it (`results/value-rank-*.json` made with `learning.values.rank --stream`)."""
+    from experiments.report.data import read_finished
+
+    lines = []
+    for path in sorted(Path("results").glob("value-rank-*.json")):
+        d = read_finished(path) or {}
+        c = d.get("conditional") or {}
+        if d.get("layout") != layout or c.get("stream") != stream:
+            continue
+        names = [Path(e["value"]).stem.replace(f"rl-anticipatory-{layout}-", "") for e in c["contexts"][0]["values"]]
+        body = []
+        for row in c["contexts"]:
+            likeliest = max(row["next_types"], key=row["next_types"].get)
+            cells = [
+                f"{num(e['unconditioned'].get('spearman'), 3)} → "
+                + ("—" if e["conditioned"] is None else num(e["conditioned"].get("spearman"), 3))
+                for e in row["values"]
+            ]
+            body.append(
+                [
+                    row["context"],
+                    f"{likeliest} {row['next_types'][likeliest]:.2f}",
+                    num(row["exact_under_p"].get("spearman"), 3),
+                    *cells,
+                ]
+            )
+        lines += [
+            f"How the values rank the {c['states']} states of `{d['data']}` by the exact C_AP under each context's "
+            f"next-task distribution (`{path.name}`; Spearman): the exact C_AP under the layout's P, then each "
+            "value's V_AP with P → with the context's distribution.",
+            "",
+            *table(["context", "likeliest next type", "exact C_AP under P", *(f"`{n}`" for n in names)], body),
+            "",
+            "Conditioning helps a search only as far as it reorders the states it compares: the exact column says "
+            "how much it reorders these states at all (1: not at all), however good the value; a value gains from "
+            "being conditioned where its second figure exceeds its first (`python -m "
+            f"learning.values.rank --data {d['data']} --value CKPT ... --stream {stream}`{_dataset_command(c, d)}).",
+            "",
+        ]
+    return lines
+
+
 def section(ctx, results: dict, folder: Path) -> list[str]:
     """The report's section on task streams (markdown lines) from `load`'s rows, its figures drawn into `folder`."""
     drawn = figure(ctx, results, folder)
@@ -291,6 +348,7 @@ def section(ctx, results: dict, folder: Path) -> list[str]:
         pairs = [(k, "iid-agent") for k in rows if k.startswith(("est-", "dep-"))]
         tests = statistics({f"{layout}, {stream}": rows}, pairs, thesis=False)
         lines += [*(line.replace("(#runs-not-yet-made)", "(#stream-runs-not-yet-made)") for line in tests), ""]
+        lines += ranking(layout, stream)
         if kind == "drift":
             starts = phase_starts(ctx, layout, stream)
             if starts:

@@ -253,6 +253,14 @@ def test_report_only_from_the_committed_results(tmp_path, monkeypatch):
     assert len(names) == len(set(names))
     for f in (ROOT / "results").glob("rl-guided-anticipatory-three-room-seed*-stream-cook-then-clean*.json"):
         assert f"| `{f.name}`" in names
+    # a ranking under the Markov stream's contexts (learning.values.rank --stream) sits in that stream's section
+    markov = text.split("### three-room, stream cook-then-clean (markov)")[1].split("\n### ")[0]
+    for f in (ROOT / "results").glob("value-rank-three-room-*.json"):
+        cond = json.loads(f.read_text()).get("conditional") or {}
+        if cond.get("stream") == "cook-then-clean":
+            after = next(r for r in cond["contexts"] if r["context"] == "after serve-water")
+            assert f"(`{f.name}`; Spearman)" in markov
+            assert f"| after serve-water | serve-water 0.60 | {after['exact_under_p']['spearman']:.3f} |" in markov
 
 
 def test_training_curves_leave_out_runs_in_progress(tmp_path, monkeypatch):
