@@ -24,12 +24,14 @@ import time
 from pathlib import Path
 
 from experiments.report import provenance, tables
-from experiments.report.data import ALL, DEVELOPMENT, HELD_OUT, improvement, load_rows, read_finished
+from experiments.report.data import improvement, load_rows, read_finished
 from experiments.report.specs import HORIZONS, LEAST_SEEDS, Row, Run
 from experiments.report.tables import (
+    HELD_OUT_HEADER,
     SHARE_TEXT,
     dagger,
     files_cell,
+    held_out_cells,
     num,
     pct,
     pm,
@@ -274,38 +276,13 @@ def learned(results: dict) -> list[str]:
 
 
 def held_out(results: dict) -> list[str]:
-    body = []
-    for layout, rows_ in results.items():
-        ref = rows_["myopic-oracle"]
-        for key, rr in rows_.items():
-            if rr.figures() is None:
-                continue
-            dev, held, every = rr.figures(DEVELOPMENT), rr.figures(HELD_OUT), rr.figures(ALL)
-            body.append(
-                [
-                    layout,
-                    rr.row.label + dagger(rr),
-                    num(dev["cost"]) if dev else "—",
-                    num(held["cost"]) if held else "—",
-                    num(every["cost"]) if every else "—",
-                    "(reference)" if key == "myopic-oracle" else pct(improvement(rr, ref, DEVELOPMENT)),
-                    "(reference)" if key == "myopic-oracle" else pct(improvement(rr, ref, HELD_OUT)),
-                ]
-            )
-    if not body:
-        return ["No results yet."]
-    return table(
-        [
-            "layout",
-            "method",
-            "development 01, 03, 06",
-            "held-out seven",
-            "all ten",
-            "improvement, development",
-            "improvement, held-out",
-        ],
-        body,
-    )
+    body = [
+        held_out_cells(layout, key, rr, rows_["myopic-oracle"])
+        for layout, rows_ in results.items()
+        for key, rr in rows_.items()
+        if rr.figures() is not None
+    ]
+    return table(HELD_OUT_HEADER, body) if body else ["No results yet."]
 
 
 def clairvoyant_share(results: dict) -> list[str]:

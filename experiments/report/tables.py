@@ -265,39 +265,44 @@ def table_a_4(results: dict) -> list[str]:
 
 
 # ---- held-out seven vs development three ----------------------------------------------------
+HELD_OUT_HEADER = [
+    "layout",
+    "method",
+    "development 01, 03, 06",
+    "held-out seven",
+    "all ten",
+    "improvement, development",
+    "improvement, held-out",
+]
+
+
+def held_out_cells(layout: str, key: str, rr: RowResult, ref: RowResult) -> list:
+    """A row's cells of HELD_OUT_HEADER: its cost per task on each split and its improvement over the
+    reference (the myopic oracle's row, `key` "myopic-oracle") on the two halves."""
+    dev, held, every = rr.figures(DEVELOPMENT), rr.figures(HELD_OUT), rr.figures(ALL)
+    return [
+        layout,
+        rr.row.label + dagger(rr),
+        num(dev["cost"]) if dev else "—",
+        num(held["cost"]) if held else "—",
+        num(every["cost"]) if every else "—",
+        "(reference)" if key == "myopic-oracle" else pct(improvement(rr, ref, DEVELOPMENT)),
+        "(reference)" if key == "myopic-oracle" else pct(improvement(rr, ref, HELD_OUT)),
+    ]
+
+
 def held_out(results: dict) -> list[str]:
     body = []
     for layout, rows in results.items():
-        ref = rows["myopic-oracle"]
         for key in TABLE_5_2:
-            rr = rows[key]
-            if rr.figures() is None:
+            if rows[key].figures() is None:
                 continue
-            dev, held, every = rr.figures(DEVELOPMENT), rr.figures(HELD_OUT), rr.figures(ALL)
             thesis = THESIS_HELD_OUT.get(layout, {}).get(key)
             body.append(
-                [
-                    layout,
-                    rr.row.label + dagger(rr),
-                    num(dev["cost"]) if dev else "—",
-                    num(held["cost"]) if held else "—",
-                    num(every["cost"]) if every else "—",
-                    "(reference)" if key == "myopic-oracle" else pct(improvement(rr, ref, DEVELOPMENT)),
-                    "(reference)" if key == "myopic-oracle" else pct(improvement(rr, ref, HELD_OUT)),
-                    num(thesis, 0) if thesis else "—",
-                ]
+                [*held_out_cells(layout, key, rows[key], rows["myopic-oracle"]), num(thesis, 0) if thesis else "—"]
             )
     return table(
-        [
-            "layout",
-            "method",
-            "development 01, 03, 06",
-            "held-out seven",
-            "all ten",
-            "improvement, development",
-            "improvement, held-out",
-            "thesis held-out",
-        ],
+        [*HELD_OUT_HEADER, "thesis held-out"],
         body,
     )
 
