@@ -226,7 +226,9 @@ def serial_sweeps(tiny, tmp_path_factory):
     return where, ckpt, train, guided
 
 
-@pytest.mark.parametrize("mode", ["workers", "ray"])
+# over Ray the sweep is slow to start (a local instance per sweep); test_ray_gives_the_serial_results keeps Ray in
+# the default suite
+@pytest.mark.parametrize("mode", ["workers", pytest.param("ray", marks=pytest.mark.slow)])
 def test_a_sweep_over_workers_gives_the_serial_results(tiny, tmp_path, serial_sweeps, mode):
     if mode == "ray":
         pytest.importorskip("ray")

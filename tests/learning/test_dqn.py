@@ -208,21 +208,21 @@ def test_training_killed_and_rerun_gives_the_uninterrupted_run(tmp_path):
         "--horizon",
         "anticipatory",
         "--steps",
-        "600",
+        "300",
         "--checkpoint-every",
-        "200",
-        "--target-every",
         "100",
+        "--target-every",
+        "50",
         "--eval-every",
-        "200",
+        "100",
         "--eval-tasks",
-        "10",
+        "5",
         "--demo-tasks",
         "20",
         "--learning-starts",
-        "100",
+        "50",
         "--log-every",
-        "100",
+        "50",
         "--hidden",
         "64",
         "--no-progress",
@@ -239,7 +239,7 @@ def test_training_killed_and_rerun_gives_the_uninterrupted_run(tmp_path):
     assert rows(resumed) == rows(whole)
     for name in ("last.pt", "best.pt"):
         a, b = (torch.load(d / name, weights_only=True) for d in (whole, resumed))
-        assert a["step"] == b["step"] == 600 or name == "best.pt"
+        assert a["step"] == b["step"] == 300 or name == "best.pt"
         assert all(torch.equal(a["net"][k], b["net"][k]) for k in a["net"])
 
 
