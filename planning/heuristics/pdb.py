@@ -247,12 +247,29 @@ def _project_ops(model, bm, atom_mask: int, consumption: list, actions: bool = T
     )
 
 
+def _applicability(ops: _Ops, n_words: int):
+    """f(states) -> (N, V) bool, which operators apply in which packed states. An operator's precondition
+    names few of the pattern's atoms (about 40 of either sign in the restaurant's and the blockworld's), so
+    the states' bits on those atoms (N, b) times the operators' (b, V) counts the violated literals in one
+    float32 product (exact: at most b), instead of testing every operator's words in turn."""
+    need = np.bitwise_or.reduce(ops.pos | ops.neg, axis=0) if len(ops.pos) else np.zeros(n_words, np.uint64)
+    where = [(w, j) for w in range(n_words) for j in range(64) if int(need[w]) >> j & 1]
+    word = np.array([w for w, _ in where], dtype=np.int64)
+    shift = np.array([j for _, j in where], dtype=np.uint64)
+    bit = lambda packed: ((packed[:, word] >> shift) & np.uint64(1)).astype(np.float32)  # (N, b) 0/1
+    pos, neg = bit(ops.pos), bit(ops.neg)  # (V, b)
+    # violated literals = Σ_b pos (1 - s) + neg s = |pos| + s · (neg - pos)
+    base, delta = pos.sum(1), np.ascontiguousarray((neg - pos).T)
+    return lambda states: bit(states) @ delta + base == 0
+
+
 def _explore(bm, ops: _Ops, seeds: np.ndarray, max_states: int):
     """Breadth-first exploration of the abstract space from its seeds: (sorted keys, their rows,
     edge sources, edge targets, edge operator rows) with states numbered in key order; edges are the
     actions' only (consumption only makes states reachable). States are deduplicated by 64-bit
     key and every key match is checked against the stored row (a collision raises)."""
     W = bm.n_words
+    applicable = _applicability(ops, W)
     frontier = np.unique(seeds, axis=0)
     seen = StateTable(W)
     seen.add(state_keys(frontier), frontier, np.arange(len(frontier)))
@@ -263,12 +280,7 @@ def _explore(bm, ops: _Ops, seeds: np.ndarray, max_states: int):
         children, sources, edge = [], [], []
         for lo in range(0, len(frontier), CHUNK):
             part = frontier[lo : lo + CHUNK]
-            viol = np.zeros((len(part), len(ops.edge)), dtype=np.uint64)
-            for w in range(W):
-                s = part[:, w, None]
-                viol |= ~s & ops.pos[None, :, w]
-                viol |= s & ops.neg[None, :, w]
-            r, v = np.nonzero(viol == 0)
+            r, v = np.nonzero(applicable(part))
             children.append((part[r] & ops.keep[v]) | ops.add[v])
             sources.append(lo_id + lo + r)
             edge.append(v)
