@@ -191,6 +191,11 @@ class Projection:
         if not len(src):
             return out
         n = self.size
+        if not start[src].any():  # every source at 0 (goal distances): a multi-source search of g itself
+            d = dijkstra(g, directed=True, indices=src, min_only=True)
+            ok = np.isfinite(d)
+            out[:-1][ok] = np.floor(d[ok] + 1e-6).astype(np.int64)
+            return out
         weight = np.where(start[src] > 0, start[src], 1e-9).astype(float)
         graph = csr_matrix(
             (np.r_[g.data, weight], np.r_[g.indices, src], np.r_[g.indptr, g.indptr[-1] + len(src)]),
