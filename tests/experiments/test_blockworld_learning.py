@@ -4,16 +4,7 @@ Gymnasium's checker on its environment (the planning tools: test_blockworld_tool
 
 import warnings
 
-import pytest
-
-from tests.blockworld_copy import LAYOUT, copy_blockworld, played, run
-
-
-@pytest.fixture(scope="module")
-def bw(tmp_path_factory):
-    """(work folder, domain folder): a copy of the blockworld folder with one canonical sequence of four tasks."""
-    work = tmp_path_factory.mktemp("bw")
-    return work, copy_blockworld(work)
+from tests.blockworld_copy import LAYOUT, played, run
 
 
 def test_both_values_train_export_and_play_on_the_blockworld(bw):

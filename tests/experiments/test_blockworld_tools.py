@@ -3,16 +3,7 @@ command after another as their inputs need: the checker, the oracles, the labell
 trained, exported and deployed both ways. The learners are in test_blockworld_learning.py (apart, so that the
 two run on two workers)."""
 
-import pytest
-
-from tests.blockworld_copy import LAYOUT, ROOT, copy_blockworld, played, results, run
-
-
-@pytest.fixture(scope="module")
-def bw(tmp_path_factory):
-    """(work folder, domain folder): a copy of the blockworld folder with one canonical sequence of four tasks."""
-    work = tmp_path_factory.mktemp("bw")
-    return work, copy_blockworld(work)
+from tests.blockworld_copy import LAYOUT, ROOT, played, results, run
 
 
 def test_every_planning_tool_runs_on_the_blockworld(bw):
