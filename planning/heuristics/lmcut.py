@@ -30,6 +30,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from planning.cache import folder
 from planning.errors import DomainError
 from planning.heuristics.hmax import INF, GoalLiterals, HMax, relaxed_view
 from planning.states import INF_64
@@ -199,7 +200,7 @@ def _load_native():
     src = Path(__file__).with_name("_lmcut.c")
     try:
         code = src.read_bytes()
-        cache = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "anticipatory-planning"
+        cache = folder()
         lib = cache / f"lmcut-{hashlib.sha1(code).hexdigest()[:12]}.so"
         if not lib.is_file():
             cache.mkdir(parents=True, exist_ok=True)

@@ -28,6 +28,10 @@ Locations are the objects the domain folder lists under its layout's rooms;
 or world reset changes. Abstract state spaces are explored from the initial and
 reset states by actions and task consumptions, so every state of the persistent
 world is in them; a state outside (e.g. hand-written) gets h = 0.
+
+Each projection's states and goal distances are kept in the user's cache folder
+(planning.cache), named by a digest of what they are computed from: a later
+process loads them instead of exploring (`PDB_CACHE=0` turns this off).
 """
 
 from __future__ import annotations
@@ -37,16 +41,22 @@ import time
 from collections import OrderedDict
 from dataclasses import dataclass
 from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from planning import cache
 from planning.domain.batched import BatchedModel, satisfied
 from planning.errors import DomainError
 from planning.states import INF_64, StateTable, state_keys
 
 CHUNK = 1 << 14  # abstract states expanded per numpy call
+# What a cached abstract space depends on besides its inputs: this module's and the state keys' code.
+_SOURCE = cache.digest(
+    *(Path(__file__).parent.parent.joinpath(f).read_bytes() for f in ("heuristics/pdb.py", "states.py"))
+)
 WINDOW_CACHE_BYTES = 1 << 31  # window distance tables kept for windows of tasks seen again
 
 
@@ -106,29 +116,37 @@ class Projection:
         self.mask = bm.pack([atom_mask])[0]
         self._model, self._bm, self._atom_mask = model, bm, atom_mask
         self.costs = np.asarray(model.action_cost if costs is None else costs, dtype=np.int64)
-        self._ops = _project_ops(model, bm, atom_mask, consumption)
-        self.keys, self.rows, src, dst, label = _explore(bm, self._ops, seeds & self.mask, max_states)
-        self.size = len(self.keys)
-        if self.size:
-            # Edges (source, target, operator row), sorted by (target, source) for the reversed
-            # graph; each (source, target) keeps its cheapest operator under the costs given.
-            n_ops = len(self._ops.edge)
-            edge = np.sort((dst * self.size + src) * n_ops + label)  # < 2^63: size^2 * ops
-            edge = edge[np.r_[True, edge[1:] != edge[:-1]]]
-            pair = edge // n_ops
-            self._src, self._dst = (pair % self.size).astype(np.int32), (pair // self.size).astype(np.int32)
-            self._label = (edge % n_ops).astype(np.int32)
-            self._first = np.flatnonzero(np.r_[True, pair[1:] != pair[:-1]])
-            pair = pair[self._first]
-            self._pairs = (pair % self.size, np.searchsorted(pair // self.size, np.arange(self.size + 1)))
-            self._backward = self._graph(self.costs)
+        self._ops = ops = _project_ops(model, bm, atom_mask, consumption)
+        seeds = seeds & self.mask
+        self._compute_space = lambda: _space(bm, ops, seeds, max_states)
+        self._key = cache.digest(_SOURCE, bm.n_words, max_states, ops.pos, ops.neg, ops.add, ops.keep, ops.edge, seeds)
+        # The states are kept on disk, the edges (ten times their size) are explored again where needed.
+        space = cache.arrays("pdb", self._key, self._compute_space, "PDB_CACHE", keep=("size", "keys", "rows"))
+        self.size = int(space["size"])
         self.exhausted = self.size <= max_states
+        if self.exhausted:
+            self.keys, self.rows = space["keys"], space["rows"]
+        self._edges = space if "label" in space else None
+        self._backward_graph = None
+
+    def edges(self) -> dict[str, np.ndarray]:
+        """The transition graph's arrays (`_space`), explored once more if the states came from the cache."""
+        if self._edges is None:
+            self._edges = self._compute_space()
+        return self._edges
+
+    @property
+    def _backward(self) -> csr_matrix:
+        if self._backward_graph is None:
+            self._backward_graph = self._graph(self.costs)
+        return self._backward_graph
 
     def _graph(self, costs: np.ndarray) -> csr_matrix:
         """The reversed transition graph, each edge weighted by its cheapest operator under `costs`."""
-        cost = np.minimum.reduceat(self._ops.row_costs(costs)[self._label], self._first)
+        e = self.edges()
+        cost = np.minimum.reduceat(self._ops.row_costs(costs)[e["label"]], e["first"])
         weight = np.where(cost > 0, cost, 1e-9).astype(float)  # a zero-cost action stays an edge
-        return csr_matrix((weight, *self._pairs), shape=(self.size, self.size))
+        return csr_matrix((weight, e["pair_source"], e["pair_start"]), shape=(self.size, self.size))
 
     def index(self, batch: np.ndarray) -> np.ndarray:
         """(N,) abstract state of each packed state; `size` for one outside the explored space."""
@@ -141,9 +159,13 @@ class Projection:
     def distances(self, pos: np.ndarray, neg: np.ndarray) -> np.ndarray:
         """(size + 1,) int64 cost from each abstract state to the nearest abstract goal state
         (INF_64: none reachable); the extra last entry, 0, answers states outside the space.
-        The goal is a DNF as (K, W) pos/neg words (levels.goal_arrays)."""
-        hold = satisfied(self.rows, pos & self.mask, neg & self.mask)
-        return self._backward_from(np.where(hold, 0, INF_64), self._backward)
+        The goal is a DNF as (K, W) pos/neg words (levels.goal_arrays). Kept in the cache."""
+        pos, neg = pos & self.mask, neg & self.mask
+        key = cache.digest(self._key, pos, neg, self.costs)
+        compute = lambda: {
+            "d": self._backward_from(np.where(satisfied(self.rows, pos, neg), 0, INF_64), self._backward)
+        }
+        return cache.arrays("pdb-goal", key, compute, "PDB_CACHE")["d"]
 
     def window_distances(self, tasks: list, costs: np.ndarray | None = None) -> list[np.ndarray]:
         """[(size + 1,) int64 per stage k]: the cost from each abstract state to complete tasks k, k+1, ...
@@ -170,11 +192,12 @@ class Projection:
         largest drop h(s) - h(t) over the abstract transitions s -> t it induces, at any stage,
         between states from which the goal is reachable (Seipp & Helmert's saturated cost
         function, floored at 0). What is left, costs - saturated, is free for other patterns."""
+        e = self.edges()
         drop = np.zeros(len(self._ops.edge), dtype=np.int64)
         for h in togo:
-            hs, ht = h[self._src], h[self._dst]
+            hs, ht = h[e["src"]], h[e["dst"]]
             ok = (hs < INF_64) & (ht < INF_64)
-            np.maximum.at(drop, self._label[ok], hs[ok] - ht[ok])
+            np.maximum.at(drop, e["label"][ok], hs[ok] - ht[ok])
         drop = np.minimum(drop, self._ops.row_costs(costs))
         need = np.zeros(len(costs), dtype=np.int64)
         ops = self._ops
@@ -313,6 +336,34 @@ def _explore(bm, ops: _Ops, seeds: np.ndarray, max_states: int):
     rank[ids] = np.arange(n)  # id -> position in key order
     cat = lambda parts, dtype: np.concatenate(parts) if parts else np.zeros(0, dtype=dtype)
     return sorted_keys, rows, rank[cat(src, np.int64)], rank[cat(dst, np.int64)], cat(labels, np.int64)
+
+
+def _space(bm, ops: _Ops, seeds: np.ndarray, max_states: int) -> dict[str, np.ndarray]:
+    """A projection's abstract space as arrays (what `Projection` keeps, cached on disk by `planning.cache`):
+    its size, and where it has at most max_states states, their sorted keys and rows and its edges (source,
+    target, operator row), sorted by (target, source) for the reversed graph, with the first edge of each
+    (source, target) pair and each pair's source and start per target (the reversed graph's CSR arrays)."""
+    keys, rows, src, dst, label = _explore(bm, ops, seeds, max_states)
+    size = len(keys)
+    if not size or size > max_states:
+        return {"size": np.array(size)}
+    n_ops = len(ops.edge)
+    edge = np.sort((dst * size + src) * n_ops + label)  # < 2^63: size^2 * ops
+    edge = edge[np.r_[True, edge[1:] != edge[:-1]]]
+    pair = edge // n_ops
+    first = np.flatnonzero(np.r_[True, pair[1:] != pair[:-1]])
+    unique = pair[first]
+    return {
+        "size": np.array(size),
+        "keys": keys,
+        "rows": rows,
+        "src": (pair % size).astype(np.int32),
+        "dst": (pair // size).astype(np.int32),
+        "label": (edge % n_ops).astype(np.int32),
+        "first": first,
+        "pair_source": unique % size,
+        "pair_start": np.searchsorted(unique // size, np.arange(size + 1)),
+    }
 
 
 class PatternDatabases:

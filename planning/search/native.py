@@ -2,7 +2,7 @@
 
 The same scheme as the LM-cut kernel (planning/heuristics/lmcut.py): the
 source is compiled on first use into the user's cache folder
-(`$XDG_CACHE_HOME/anticipatory-planning`, else `~/.cache/...`), named by a
+(planning.cache: `$XDG_CACHE_HOME/anticipatory-planning`, else `~/.cache/...`), named by a
 digest of the source, the flags and the CPU, and loaded with ctypes. Where no
 compiler works (or `<NAME>_NATIVE=0`) `load` returns None and the caller runs
 its pure-Python version, which computes the same thing.
@@ -22,6 +22,8 @@ import platform
 import subprocess
 from pathlib import Path
 
+from planning import cache
+
 BASE_FLAGS = ["-O3", "-ffp-contract=off", "-fno-fast-math", "-shared", "-fPIC"]
 _LOADED: dict = {}
 
@@ -37,10 +39,6 @@ def _cpu() -> str:
     except OSError:
         pass
     return f"{platform.machine()} {flags}"
-
-
-def cache_folder() -> Path:
-    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "anticipatory-planning"
 
 
 def load(source: Path, switch: str) -> ctypes.CDLL | None:
@@ -62,7 +60,7 @@ def _build(src: Path) -> ctypes.CDLL | None:
     for extra in (["-march=native"], []):
         flags = BASE_FLAGS + extra
         digest = hashlib.sha1(code + " ".join([cc] + flags).encode() + _cpu().encode()).hexdigest()[:12]
-        lib = cache_folder() / f"{src.stem.lstrip('_')}-{digest}.so"
+        lib = cache.folder() / f"{src.stem.lstrip('_')}-{digest}.so"
         try:
             if not lib.is_file():
                 lib.parent.mkdir(parents=True, exist_ok=True)

@@ -1,11 +1,13 @@
 """Pattern databases (planning.heuristics.pdb): admissible everywhere, exact where delete relaxations are blind."""
 
+import shutil
+
 import pytest
 
 from oracles.labelling import Labeller
 from planning.heuristics.hmax import goal_literals
 from planning.heuristics.lmcut import LMCut
-from planning.heuristics.pdb import GROW_STATES, pattern_databases
+from planning.heuristics.pdb import GROW_STATES, PatternDatabases, pattern_databases
 
 
 def _estimates(model, state):
@@ -132,3 +134,33 @@ def test_applicability_is_every_literal_of_each_precondition(minimal, three_room
         got = _applicability(ops, bm.n_words)(states)
         assert got.dtype == bool and (got == want).all()
         assert 0 < want.sum() < want.size  # some operators apply, not all
+
+
+def test_the_disk_cache_gives_the_same_estimates_and_recovers_from_a_bad_entry(minimal, tmp_path, monkeypatch):
+    """Each projection's states and goal distances are kept in the user's cache folder (planning.cache): a second
+    build loads them and gives the same estimates, a window's too (its graph explored again where needed); an
+    entry that cannot be read is computed again and rewritten; PDB_CACHE=0 writes nothing."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    folder = tmp_path / "anticipatory-planning"
+    first = PatternDatabases(minimal)
+    states = first.bm.pack(minimal.random_walk_states(20, seed=1, walk=10))
+    window = list(minimal.tasks.tasks[:3])
+    expected = first.per_task(states), first.window_estimate(states, window)
+    files = sorted(folder.rglob("*.npz"))
+    assert {f.parent.name for f in files} == {"pdb", "pdb-goal"}
+
+    def same(pdb):
+        assert all(p is None or p._edges is None for p, _ in pdb.projections.values())  # loaded, not explored
+        assert (pdb.per_task(states) == expected[0]).all()
+        assert (pdb.window_estimate(states, window) == expected[1]).all()
+
+    same(PatternDatabases(minimal))
+    for f in files:
+        f.write_bytes(b"cut short")
+    first = PatternDatabases(minimal)
+    assert all(p is None or p._edges is not None for p, _ in first.projections.values())  # explored again
+    same(PatternDatabases(minimal))
+    monkeypatch.setenv("PDB_CACHE", "0")
+    shutil.rmtree(folder)
+    PatternDatabases(minimal).per_task(states)
+    assert not folder.exists()
