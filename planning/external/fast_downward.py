@@ -22,12 +22,9 @@ from dataclasses import dataclass, field
 from enum import Enum
 from pathlib import Path
 
-from unified_planning.engines import PlanGenerationResultStatus as UPStatus
-from unified_planning.shortcuts import OneshotPlanner
-
 from planning.errors import DomainError
 from planning.external.pddl_writer import domain_text, problem_text, task_goal_text
-from planning.external.up_bridge import action_name, up_goal_text, up_problem, up_problem_text
+from planning.external.up_bridge import action_name, up, up_goal_text, up_problem, up_problem_text
 
 OPTIMAL_CONFIG = "astar(blind())"  # the thesis's myopic oracle: A* with the blind heuristic
 
@@ -40,14 +37,17 @@ class Status(Enum):
     CRASHED = "crashed"
 
 
-_STATUS = {
-    UPStatus.SOLVED_SATISFICING: Status.SOLVED,
-    UPStatus.SOLVED_OPTIMALLY: Status.SOLVED,
-    UPStatus.UNSOLVABLE_PROVEN: Status.UNSOLVABLE,
-    UPStatus.UNSOLVABLE_INCOMPLETELY: Status.UNSOLVABLE,
-    UPStatus.TIMEOUT: Status.OUT_OF_TIME,
-    UPStatus.MEMOUT: Status.OUT_OF_MEMORY,
-}
+def _status(up_status) -> Status:
+    """Our status of a unified-planning plan generation status (anything else: CRASHED)."""
+    s = up().engines.PlanGenerationResultStatus
+    return {
+        s.SOLVED_SATISFICING: Status.SOLVED,
+        s.SOLVED_OPTIMALLY: Status.SOLVED,
+        s.UNSOLVABLE_PROVEN: Status.UNSOLVABLE,
+        s.UNSOLVABLE_INCOMPLETELY: Status.UNSOLVABLE,
+        s.TIMEOUT: Status.OUT_OF_TIME,
+        s.MEMOUT: Status.OUT_OF_MEMORY,
+    }.get(up_status, Status.CRASHED)
 
 
 @dataclass
@@ -81,7 +81,7 @@ def run_planner(problem, search: str = OPTIMAL_CONFIG, time_limit: float = 600.0
         "fast_downward_search_time_limit": f"{max(1, int(time_limit))}s",
         "log_level": "info",
     }
-    with _private_cwd(), OneshotPlanner(name="fast-downward", params=params) as planner:
+    with _private_cwd(), up().shortcuts.OneshotPlanner(name="fast-downward", params=params) as planner:
         result = planner.solve(problem, timeout=time_limit + 30)
     return result, "\n".join(m.message for m in result.log_messages or [])
 
@@ -158,7 +158,7 @@ def solve(model, state: int, task, time_limit: float = 600.0, search: str = OPTI
         problem = up_problem(model, up_problem_text(model, state, up_goal_text(model, task)))
         result, log = run_planner(problem, search, time_limit)
         seconds = time.perf_counter() - start
-        status = _STATUS.get(result.status, Status.CRASHED)
+        status = _status(result.status)
         if status != Status.SOLVED:
             tail = " ".join(log.split())[-300:]
             return PlanResult(status, seconds=seconds, message=f"{result.status.name} {tail}".strip())

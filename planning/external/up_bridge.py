@@ -11,16 +11,24 @@ they are. Plans and states are mapped back through the same names.
 
 from __future__ import annotations
 
+import functools
 import warnings
 import weakref
 
-from unified_planning.io import PDDLReader
-from unified_planning.shortcuts import get_environment
-
 from planning.errors import DomainError
 
-get_environment().credits_stream = None
-warnings.filterwarnings("ignore", module="unified_planning")
+
+@functools.cache
+def up():
+    """unified-planning, imported on first use (it takes about a second to import, which a command that never
+    calls it should not pay), with its credits banner and warnings silenced."""
+    import unified_planning.engines
+    import unified_planning.io
+    import unified_planning.shortcuts
+
+    unified_planning.shortcuts.get_environment().credits_stream = None
+    warnings.filterwarnings("ignore", module="unified_planning")
+    return unified_planning
 
 
 _NAMES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
@@ -69,7 +77,7 @@ def up_problem(model, problem_pddl: str | None = None):
     `up_names`: up_problem_text)."""
     from planning.external.pddl_writer import problem_goal_text
 
-    reader = PDDLReader()
+    reader = up().io.PDDLReader()
     domain = up_domain_text(model)
     if problem_pddl is not None:
         text = problem_pddl
