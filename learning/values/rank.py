@@ -67,6 +67,8 @@ def agreement(v: np.ndarray, c_ap: np.ndarray) -> dict:
 
     if len(v) < 3:
         return {"states": int(len(v))}
+    if np.ptp(v) == 0 or np.ptp(c_ap) == 0:  # a constant ranks nothing: no correlation is defined (JSON null)
+        return {"states": int(len(v)), "spearman": None, "kendall": None, "pair_agreement": None}
     slope = np.polyfit(-c_ap, v, 1)[0]
     return {
         "states": int(len(v)),

@@ -361,6 +361,7 @@ def test_value_rank_under_a_markov_stream_conditions_on_each_context(two_room, t
         assert exact["conditioned"]["spearman"] == pytest.approx(1.0)
         assert exact["unconditioned"]["spearman"] == pytest.approx(row["exact_under_p"]["spearman"])
         assert zero["conditioned"] is None
+        assert zero["unconditioned"]["spearman"] is None  # a constant value ranks nothing (not NaN in the JSON)
     assert min(row["exact_under_p"]["spearman"] for row in r["contexts"]) < 1.0  # conditioning reorders states
     with pytest.raises(DomainError, match="i.i.d. stream"):
         conditional([ZeroValue()], str(tmp_path / "data"), "domains/restaurant", "iid")
