@@ -26,8 +26,9 @@ test: $(STAMP)
 test-slow: $(STAMP)
 	$(PY) -m pytest -m slow
 
+# The README's command lines on every core, each worker in its own fresh copy of the checkout (a module fixture).
 smoke: $(STAMP)
-	$(PY) -m pytest -m smoke tests/smoke
+	$(PY) -m pytest -m smoke -n auto --dist load tests/smoke
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
