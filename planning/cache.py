@@ -15,6 +15,7 @@ file.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import zipfile
@@ -66,6 +67,7 @@ def arrays(
             path.parent.mkdir(parents=True, exist_ok=True)
             np.savez(tmp, **kept)
             os.replace(tmp, path)
-        except OSError:
-            tmp.unlink(missing_ok=True)
+        except OSError:  # not writable here: the arrays all the same
+            with contextlib.suppress(OSError):
+                tmp.unlink(missing_ok=True)
     return out
