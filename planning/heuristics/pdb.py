@@ -53,9 +53,13 @@ from planning.errors import DomainError
 from planning.states import INF_64, StateTable, state_keys
 
 CHUNK = 1 << 14  # abstract states expanded per numpy call
-# What a cached abstract space depends on besides its inputs: this module's and the state keys' code.
+# What a cached space or distance table depends on besides its inputs: the code of this module, of the state
+# keys and tables (states.py) and of the goal test (batched.py's `satisfied`).
 _SOURCE = cache.digest(
-    *(Path(__file__).parent.parent.joinpath(f).read_bytes() for f in ("heuristics/pdb.py", "states.py"))
+    *(
+        Path(__file__).parent.parent.joinpath(f).read_bytes()
+        for f in ("heuristics/pdb.py", "states.py", "domain/batched.py")
+    )
 )
 WINDOW_CACHE_BYTES = 1 << 31  # window distance tables kept for windows of tasks seen again
 
