@@ -55,10 +55,8 @@ def arrays(
     try:
         with np.load(path, allow_pickle=False) as f:
             return {name: f[name] for name in f.files}
-    except FileNotFoundError:
-        pass
     except (OSError, ValueError, EOFError, zipfile.BadZipFile):
-        pass  # unreadable (cut short, or not ours): computed again and rewritten
+        pass  # missing, or unreadable (cut short, not ours): computed and written
     out = compute()
     kept = {name: a for name, a in out.items() if keep is None or name in keep}
     if sum(a.nbytes for a in kept.values()) <= max_bytes:
