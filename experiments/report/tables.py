@@ -359,9 +359,22 @@ def _thesis_share(layout: str, key: str) -> str:
 
 
 # ---- statistics (§5.4.3) --------------------------------------------------------------------
-def statistics(results: dict, comparisons=COMPARISONS, thesis: bool = True) -> list[str]:
+def shared_seeds(ra: RowResult, rb: RowResult) -> tuple[list, list, list] | None:
+    """(seeds, A's results, B's results) of the seeds both rows used, where their seed sets differ and share
+    some: a comparison free of the luck of the seeds only one side has. None where the sets are equal or
+    disjoint (an oracle's row has no seed)."""
+    sa = {x.run.seed: x.data for x in ra.loaded if x.used}
+    sb = {x.run.seed: x.data for x in rb.loaded if x.used}
+    both = sorted(set(sa) & set(sb) - {None})
+    if not both or set(sa) == set(sb):
+        return None
+    return both, [sa[s] for s in both], [sb[s] for s in both]
+
+
+def statistics(results: dict, comparisons=COMPARISONS, thesis: bool = True, same_seeds: bool = False) -> list[str]:
     """The §5.4.3 tests of each pair (A against B) both of whose rows a layout has: Wilcoxon over
-    sequences, Welch across seed means; with `thesis`, the thesis's figures beside ours."""
+    sequences, Welch across seed means; with `thesis`, the thesis's figures beside ours; with
+    `same_seeds`, the tests again on the seeds both rows have, where their seed sets differ (`shared_seeds`)."""
     body = []
     for layout, rows in results.items():
         for a, b in comparisons:
@@ -369,14 +382,19 @@ def statistics(results: dict, comparisons=COMPARISONS, thesis: bool = True) -> l
                 continue
             ra, rb = rows[a], rows[b]
             label = f"{ra.row.label} vs {rb.row.label}"
-            for split, ids in (("all ten", ALL), ("held-out seven", HELD_OUT)):
+            splits = [("all ten", ALL, ra.used, rb.used), ("held-out seven", HELD_OUT, ra.used, rb.used)]
+            shared = shared_seeds(ra, rb) if same_seeds else None
+            if shared is not None:
+                seeds = ", ".join(str(s) for s in shared[0])
+                splits.append((f"all ten, seeds {seeds} only", ALL, shared[1], shared[2]))
+            for split, ids, used_a, used_b in splits:
                 th = THESIS_STATS.get((layout, a, b), {}).get("all" if split == "all ten" else "held-out", {})
                 theirs = [_thesis_stats(th)] if thesis else []
                 if not ra.used or not rb.used:
                     missing = " and ".join(r.row.label for r in (ra, rb) if not r.used)
                     body.append([layout, label, split, f"not run ({missing}: {MISSING})", "—", "—", "—", "—", *theirs])
                     continue
-                res = stats.compare(ra.used, rb.used, ids)
+                res = stats.compare(used_a, used_b, ids)
                 w, t = res["wilcoxon"], res["welch"]
                 wil = f"W = {w['statistic']:g}, p = {w['p']:.4g}" if "p" in w else w["reason"]
                 welch = (

@@ -92,6 +92,32 @@ def test_one_seed_per_side_is_a_reason_not_a_number():
     assert res["welch"]["reduction"] == pytest.approx(1 - 1.5 / 3.5)
 
 
+def test_rows_of_different_seeds_are_tested_again_on_the_seeds_they_share():
+    """A row of seeds 0, 4 against one of seeds 0, 4, 16: the usual tests over all their seeds, then the same
+    tests on seeds 0 and 4 alone, where B's lucky seed 16 no longer makes A look worse."""
+    from experiments.report.data import Loaded, RowResult
+    from experiments.report.tables import shared_seeds, statistics
+
+    def row(key, seeds, per_seed):
+        runs = [Run("rl-guided", "two-room", out=f"{key}-{n}.json", seed=n) for n in seeds]
+        loaded = [Loaded(r, "ok", data) for r, data in zip(runs, results_set(per_seed))]
+        return RowResult(Row(key, key.upper(), "two-room", tuple(runs), seeded=True), loaded)
+
+    a = row("a", [0, 4], [[101 + i for i in range(10)], [201 + i for i in range(10)]])
+    b = row("b", [0, 4, 16], [[100 + i for i in range(10)], [200 + i for i in range(10)], [0 + i for i in range(10)]])
+    seeds, used_a, used_b = shared_seeds(a, b)
+    assert seeds == [0, 4] and used_a == a.used and used_b == b.used[:2]
+    assert shared_seeds(a, a) is None  # the same seeds: nothing to add
+    lines = statistics({"two-room": {"a": a, "b": b}}, [("a", "b")], thesis=False, same_seeds=True)
+    rows = [line for line in lines if line.startswith("| two-room")]
+    assert [r.split(" | ")[2] for r in rows] == ["all ten", "held-out seven", "all ten, seeds 0, 4 only"]
+    # seed means: A 105.5 and 205.5; B 104.5, 204.5 and 4.5. Over all seeds A looks 48.8% dearer (155.5 against
+    # 104.5); on seeds 0 and 4 alone it is dearer by one per sequence: 1 - 155.5 / 154.5 = -0.6%
+    assert "0 of 10" in rows[2] and "2 / 2" in rows[2] and "2 / 3" in rows[0]
+    assert "−0.6%" in rows[2] and "−48.8%" in rows[0]
+    assert "seeds 0, 4 only" not in "\n".join(statistics({"two-room": {"a": a, "b": b}}, [("a", "b")], thesis=False))
+
+
 # ---- which files a row uses -----------------------------------------------------------------
 @pytest.fixture
 def tiny(two_room, tmp_path, monkeypatch):
