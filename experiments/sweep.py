@@ -198,23 +198,25 @@ def train_items(args, grid: dict, settings: dict) -> tuple[list, list, list]:
         # a run with a target bound keeps its files apart under learning.dqn's own suffix
         extra = "".join(f"-{a}{p[a]}" for a in varied if a != "target_bound")
         extra += "".join(f"-{a}{settings[a]}" for a in alone)
-        name = run_name(domain_name, {**settings, **p}, extra)
-        items.append(
-            {
-                "domain": args.domain,
-                "layout": p["layout"],
-                "horizon": p["horizon"],
-                "seed": p["seed"],
-                "settings": {**settings, **{a: p[a] for a in axes if a not in GRID}},
-                "out": str(Path(args.runs) / name),
-            }
-        )
-        item_config(items[-1])  # a setting no run can have
+        item = {
+            "domain": args.domain,
+            "layout": p["layout"],
+            "horizon": p["horizon"],
+            "seed": p["seed"],
+            "settings": {**settings, **{a: p[a] for a in axes if a not in GRID}},
+            "out": None,
+        }
+        # named from the settings the run will have (domain.toml [training] included, a setting no run can
+        # have refused here), as learning.dqn and learning.export name it: a domain's default task encoding
+        # is in the names, and a run of another encoding never shares its folder or files
+        effective = {**dataclasses.asdict(item_config(item)), **p}
+        name = run_name(domain_name, effective, extra)
+        items.append({**item, "out": str(Path(args.runs) / name)})
         for axis in grid:
             file_name(p[axis], f"--{axis.replace('_', '-')}", "value")
         file_in(args.runs, name, "--runs", "a run folder's name")
         if args.deploy:  # learning.export's and experiments.evaluate's default names
-            short = rl_name({**settings, **p}, extra)
+            short = rl_name(effective, extra)
             pddl = compile_domain(args.domain, p["layout"]).name
             first = "" if pddl == "restaurant" else f"{file_name(pddl, '--domain', 'domain name')}-"
             items[-1]["deploy"] = {

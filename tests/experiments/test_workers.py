@@ -313,6 +313,39 @@ def test_a_discount_given_alone_is_named_as_in_a_list(tiny, tmp_path, monkeypatc
     assert named({"gamma": 0.97})[0][0] == "tiny-grid-anticipatory-seed0" == named({})[0][0]
 
 
+def test_a_sweep_names_its_runs_with_the_domains_training_defaults(tiny, tmp_path, monkeypatch):
+    """A setting domain.toml [training] gives (here the goal-object task encoding) is in a sweep's run, checkpoint
+    and results names as learning.dqn and learning.export put it there: a run of the domain's default encoding
+    and one of the thesis's encoding given on the command line never share a folder or a file."""
+    import argparse
+
+    from experiments.sweep import train_items
+
+    folder = tmp_path / "objects"
+    shutil.copytree(tiny, folder)
+    toml = folder / "domain.toml"
+    toml.write_text(toml.read_text().replace("[training]\n", '[training]\ntask_features = "arguments+objects"\n', 1))
+    monkeypatch.chdir(tmp_path)
+    args = argparse.Namespace(
+        domain=str(folder), runs="runs/dqn", deploy=True, checkpoints="ck", results="res", sequences="0-1", force=False
+    )
+    grid = {"layout": ["grid"], "horizon": ["anticipatory"], "seed": [0]}
+
+    def named(settings):
+        _, names, items = train_items(args, grid, settings)
+        return names[0], items[0]["deploy"]["checkpoint"], items[0]["out"]
+
+    assert named({}) == (
+        "objects-grid-anticipatory-seed0-features-objects",
+        "ck/minimal-rl-anticipatory-grid-seed0-features-objects.pt",
+        "runs/dqn/objects-grid-anticipatory-seed0-features-objects",
+    )
+    assert named({"task_features": "arguments"})[:2] == (
+        "objects-grid-anticipatory-seed0",
+        "ck/minimal-rl-anticipatory-grid-seed0.pt",
+    )
+
+
 def test_a_deployed_sweep_exports_each_run_and_plays_it_greedily(tiny, tmp_path):
     """--deploy: each finished run's compact checkpoint, key figures and rl-greedy results, named as
     learning.export and experiments.evaluate name them; the results file is the greedy evaluation's."""
