@@ -382,13 +382,17 @@ def statistics(results: dict, comparisons=COMPARISONS, thesis: bool = True, same
                 continue
             ra, rb = rows[a], rows[b]
             label = f"{ra.row.label} vs {rb.row.label}"
-            splits = [("all ten", ALL, ra.used, rb.used), ("held-out seven", HELD_OUT, ra.used, rb.used)]
+            # (label, sequences, A's results, B's results, the thesis's figures of the same test)
+            known = THESIS_STATS.get((layout, a, b), {})
+            splits = [
+                ("all ten", ALL, ra.used, rb.used, known.get("all", {})),
+                ("held-out seven", HELD_OUT, ra.used, rb.used, known.get("held-out", {})),
+            ]
             shared = shared_seeds(ra, rb) if same_seeds else None
-            if shared is not None:
+            if shared is not None:  # the thesis reports no test on a subset of its seeds
                 seeds = ", ".join(str(s) for s in shared[0])
-                splits.append((f"all ten, seeds {seeds} only", ALL, shared[1], shared[2]))
-            for split, ids, used_a, used_b in splits:
-                th = THESIS_STATS.get((layout, a, b), {}).get("all" if split == "all ten" else "held-out", {})
+                splits.append((f"all ten, seeds {seeds} only", ALL, shared[1], shared[2], {}))
+            for split, ids, used_a, used_b, th in splits:
                 theirs = [_thesis_stats(th)] if thesis else []
                 if not ra.used or not rb.used:
                     missing = " and ".join(r.row.label for r in (ra, rb) if not r.used)
