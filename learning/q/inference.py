@@ -529,12 +529,12 @@ MEMO_LOG2 = 20  # the memo's slots (32 bytes each in the restaurant): 2**20, hal
 
 
 def _qnet_lib():
-    """The compiled learning/q/_qnet.c (planning.search.native), or None (no compiler, or QNET_NATIVE=0)."""
+    """The compiled learning/q/_qnet.c (planning.native), or None (no compiler, or QNET_NATIVE=0)."""
     global _QNET_LIB
     if _QNET_LIB is None:
         import ctypes
 
-        from planning.search import native
+        from planning import native
 
         so = native.load(Path(__file__).with_name("_qnet.c"), "QNET_NATIVE")
         if so is not None:

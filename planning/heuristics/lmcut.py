@@ -22,17 +22,14 @@ with the system C compiler, and the numpy version runs where there is none.
 from __future__ import annotations
 
 import ctypes
-import hashlib
-import os
-import subprocess
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
-from planning.cache import folder
 from planning.errors import DomainError
 from planning.heuristics.hmax import INF, GoalLiterals, HMax, relaxed_view
+from planning.native import load
 from planning.states import INF_64
 
 CHUNK = 512  # states per numpy pass: keeps the (achievers, states) arrays in cache
@@ -195,25 +192,8 @@ def native():
 
 
 def _load_native():
-    if os.environ.get("LMCUT_NATIVE", "1") == "0":
-        return None
-    src = Path(__file__).with_name("_lmcut.c")
-    try:
-        code = src.read_bytes()
-        cache = folder()
-        lib = cache / f"lmcut-{hashlib.sha1(code).hexdigest()[:12]}.so"
-        if not lib.is_file():
-            cache.mkdir(parents=True, exist_ok=True)
-            tmp = cache / f"{lib.name}.{os.getpid()}.tmp"
-            subprocess.run(
-                [os.environ.get("CC", "cc"), "-O2", "-shared", "-fPIC", "-o", str(tmp), str(src)],
-                check=True,
-                capture_output=True,
-                timeout=120,
-            )
-            os.replace(tmp, lib)  # atomic: processes building at once never load half a file
-        so = ctypes.CDLL(str(lib))
-    except (OSError, subprocess.SubprocessError):
+    so = load(Path(__file__).with_name("_lmcut.c"), "LMCUT_NATIVE")
+    if so is None:
         return None
     i64 = np.ctypeslib.ndpointer(np.int64, flags="C_CONTIGUOUS")
     i32 = np.ctypeslib.ndpointer(np.int32, flags="C_CONTIGUOUS")

@@ -3,7 +3,7 @@
 For a compiled model (`planning.domain.model.Model` without derived
 predicates, at most 4,096 atoms, integer costs) and a task with goal bindings
 the loop of `planning.search.bellman_novelty` runs in C, built on first use
-with the system C compiler (`planning.search.native`; `ANTICIPATORY_BN_NATIVE=0`:
+with the system C compiler (`planning.native`; `ANTICIPATORY_BN_NATIVE=0`:
 never). `Kernel` is the model's successor index as arrays: its successors
 are Model.successors' in the same order, checked against them on probe states
 before a model's kernel is used (`kernel_for`). The C loop's heaps, counters,
@@ -31,7 +31,7 @@ from typing import Self
 
 import numpy as np
 
-from planning.search import native
+from planning import native
 from planning.search.bn_stats import BNStats
 from planning.search.terminals import Terminal
 

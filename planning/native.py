@@ -1,6 +1,6 @@
 """Build and load a small C kernel with the system C compiler, once per source version and machine.
 
-The same scheme as the LM-cut kernel (planning/heuristics/lmcut.py): the
+Used by every kernel (LM-cut, the Bellman-Novelty expansion, the Q-network): the
 source is compiled on first use into the user's cache folder
 (planning.cache: `$XDG_CACHE_HOME/anticipatory-planning`, else `~/.cache/...`), named by a
 digest of the source, the flags and the CPU, and loaded with ctypes. Where no
