@@ -7,7 +7,7 @@
 seeds × any other training setting given as a list (`--gamma 0.95,0.97`; every
 `learning.dqn` flag is accepted, a single value applies to all runs; a discount other than Table A.2's
 is named even alone, as in a list). Each run is a
-work item: it trains in RUNS/<domain>-<layout>-<horizon>-seed<seed>[-<setting><value>...]
+work item: it trains in RUNS/<PDDL domain name>-<layout>-<horizon>-seed<seed>[-<setting><value>...]
 (resuming from its last.pt, as `learning.dqn` does) and its outcome (steps, tasks, best greedy
 evaluation, last metrics row) goes to OUT.parts/<run>.json, with its provenance, as soon as
 it ends; a part of the same settings is reused on a rerun (delete it to train again). Every
@@ -192,7 +192,7 @@ def train_items(args, grid: dict, settings: dict) -> tuple[list, list, list]:
     # a discount given alone is named as in a list of them: `--gamma 0.9` trains where `--gamma 0.9,0.99` puts
     # its γ = 0.9 runs (Table A.5's names), not into the default run's folder under the default's file names
     alone = [a for a in NAMED_ALONE if a in settings and settings[a] != getattr(Config, a)]
-    domain_name = file_name(Path(args.domain).resolve().name, "--domain", "folder name")
+    pddl_names = {}  # layout -> the PDDL domain's name, which learning.dqn and learning.export name files after
     items, names = [], []
     for p in points:
         # a run with a target bound keeps its files apart under learning.dqn's own suffix
@@ -210,15 +210,18 @@ def train_items(args, grid: dict, settings: dict) -> tuple[list, list, list]:
         # have refused here), as learning.dqn and learning.export name it: a domain's default task encoding
         # is in the names, and a run of another encoding never shares its folder or files
         effective = {**dataclasses.asdict(item_config(item)), **p}
-        name = run_name(domain_name, effective, extra)
+        if p["layout"] not in pddl_names:
+            model = compile_domain(args.domain, p["layout"])
+            pddl_names[p["layout"]] = file_name(model.name, model.files["domain"], "domain name")
+        pddl = pddl_names[p["layout"]]
+        name = run_name(pddl, effective, extra)
         items.append({**item, "out": str(Path(args.runs) / name)})
         for axis in grid:
             file_name(p[axis], f"--{axis.replace('_', '-')}", "value")
         file_in(args.runs, name, "--runs", "a run folder's name")
         if args.deploy:  # learning.export's and experiments.evaluate's default names
             short = rl_name(effective, extra)
-            pddl = compile_domain(args.domain, p["layout"]).name
-            first = "" if pddl == "restaurant" else f"{file_name(pddl, '--domain', 'domain name')}-"
+            first = "" if pddl == "restaurant" else f"{pddl}-"
             items[-1]["deploy"] = {
                 "checkpoint": f"{args.checkpoints}/{first}rl-{short}.pt",
                 "figures": f"{args.results}/{first}training-{short}.json",

@@ -221,7 +221,7 @@ def serial_sweeps(tiny, tmp_path_factory):
     """A training sweep (2 seeds) and an rl-guided β sweep with its first network, run serially."""
     where = tmp_path_factory.mktemp("sweeps")
     train = sweep(tiny, where, "serial", *TRAIN, "--runs", "runs/serial")
-    ckpt = str(where / "runs" / "serial" / "tiny-grid-anticipatory-seed0" / "best.pt")
+    ckpt = str(where / "runs" / "serial" / "minimal-grid-anticipatory-seed0" / "best.pt")
     guided = sweep(tiny, where, "g-serial", *GUIDED, "--checkpoint", ckpt, "--results", "r-serial")
     return where, ckpt, train, guided
 
@@ -259,7 +259,7 @@ def test_a_sweep_of_seeds_together_follows_the_serial_runs(tiny, tmp_path, seria
         assert (a["steps"], a["tasks"], a["best_step"]) == (b["steps"], b["tasks"], b["best_step"])
         assert a["last"]["success_rate"] == b["last"]["success_rate"]
         assert a["last"]["td_target"] == pytest.approx(b["last"]["td_target"], rel=1e-3, abs=1e-3)
-    assert (tmp_path / "runs" / "together" / "tiny-grid-anticipatory-seed1" / "last.pt").is_file()
+    assert (tmp_path / "runs" / "together" / "minimal-grid-anticipatory-seed1" / "last.pt").is_file()
 
 
 def test_a_training_sweeps_summary_is_named_after_its_grid():
@@ -304,22 +304,25 @@ def test_a_discount_given_alone_is_named_as_in_a_list(tiny, tmp_path, monkeypatc
     alone = named({"gamma": 0.9})
     assert alone == [
         (
-            "tiny-grid-anticipatory-seed0-gamma0.9",
+            "minimal-grid-anticipatory-seed0-gamma0.9",
             "ck/minimal-rl-anticipatory-grid-seed0-gamma0.9.pt",
             "res/minimal-rl-greedy-anticipatory-grid-seed0-gamma0.9.json",
         )
     ]
     assert named({}, gamma=[0.9, 0.99])[0] == alone[0]
-    assert named({"gamma": 0.97})[0][0] == "tiny-grid-anticipatory-seed0" == named({})[0][0]
+    assert named({"gamma": 0.97})[0][0] == "minimal-grid-anticipatory-seed0" == named({})[0][0]
 
 
 def test_a_sweep_names_its_runs_with_the_domains_training_defaults(tiny, tmp_path, monkeypatch):
     """A setting domain.toml [training] gives (here the goal-object task encoding) is in a sweep's run, checkpoint
     and results names as learning.dqn and learning.export put it there: a run of the domain's default encoding
-    and one of the thesis's encoding given on the command line never share a folder or a file."""
+    and one of the thesis's encoding given on the command line never share a folder or a file. Runs are named after
+    the PDDL domain (here `minimal`), as learning.dqn names its default folder, not after the domain's folder."""
     import argparse
 
     from experiments.sweep import train_items
+    from learning.q.training import make_config, run_folder
+    from planning.domain.compiler import compile_domain
 
     folder = tmp_path / "objects"
     shutil.copytree(tiny, folder)
@@ -336,14 +339,16 @@ def test_a_sweep_names_its_runs_with_the_domains_training_defaults(tiny, tmp_pat
         return names[0], items[0]["deploy"]["checkpoint"], items[0]["out"]
 
     assert named({}) == (
-        "objects-grid-anticipatory-seed0-features-objects",
+        "minimal-grid-anticipatory-seed0-features-objects",
         "ck/minimal-rl-anticipatory-grid-seed0-features-objects.pt",
-        "runs/dqn/objects-grid-anticipatory-seed0-features-objects",
+        "runs/dqn/minimal-grid-anticipatory-seed0-features-objects",
     )
     assert named({"task_features": "arguments"})[:2] == (
-        "objects-grid-anticipatory-seed0",
+        "minimal-grid-anticipatory-seed0",
         "ck/minimal-rl-anticipatory-grid-seed0.pt",
     )
+    own = run_folder(make_config(str(folder), "grid", "anticipatory", seed=0), compile_domain(str(folder), "grid"))
+    assert str(own) == named({})[2]  # learning.dqn's default folder for the same run
 
 
 def test_a_deployed_sweep_exports_each_run_and_plays_it_greedily(tiny, tmp_path):
@@ -377,7 +382,7 @@ def test_a_deployed_sweep_exports_each_run_and_plays_it_greedily(tiny, tmp_path)
     assert figures["seed"] == 1 and figures["steps"] == 120
     # the compact checkpoint acts as the run's best.pt on the grid
     model = compile_domain(tiny, "grid")
-    full = load_value_function(tmp_path / "runs" / "d" / "tiny-grid-anticipatory-seed1" / "best.pt", model)
+    full = load_value_function(tmp_path / "runs" / "d" / "minimal-grid-anticipatory-seed1" / "best.pt", model)
     small = load_value_function(tmp_path / g["checkpoint"], model)
     states = model.random_walk_states(30, seed=4)
     for t in range(len(model.tasks)):
