@@ -66,13 +66,23 @@ def _run(cfgs, batched: bool):
     return out
 
 
-@pytest.mark.parametrize("horizon", ["myopic", "anticipatory"])
-def test_batched_seeds_follow_their_single_runs(minimal, tmp_path, horizon):
+@pytest.mark.parametrize(
+    "horizon, estimator", [("myopic", "known"), ("anticipatory", "known"), ("anticipatory", "empirical")]
+)
+def test_batched_seeds_follow_their_single_runs(minimal, tmp_path, horizon, estimator):
     """Two seeds trained together and each alone: after 101 updates the weights agree to float32 rounding
     (1e-5); resumed together to 600 steps (501 updates), the same actions, minibatches and replay memory
-    throughout, though rounding has grown in the weights (Adam amplifies it; about 1e-3 by then)."""
+    throughout, though rounding has grown in the weights (Adam amplifies it; about 1e-3 by then). With an
+    online estimate of P(τ) each seed keeps its own counts, equal to its single run's."""
     cfg = lambda seed, where, steps: small_config(
-        minimal, tmp_path / where / str(seed), horizon, seed=seed, steps=steps, demo_tasks=20, hidden=32
+        minimal,
+        tmp_path / where / str(seed),
+        horizon,
+        seed=seed,
+        steps=steps,
+        demo_tasks=20,
+        hidden=32,
+        estimator=estimator,
     )
     alone = _run([cfg(0, "alone", 200), cfg(3, "alone", 200)], batched=False)
     together = _run([cfg(0, "together", 200), cfg(3, "together", 200)], batched=True)
@@ -92,8 +102,15 @@ def test_batched_seeds_follow_their_single_runs(minimal, tmp_path, horizon):
             assert np.array_equal(getattr(a.memory, key)[:n], getattr(b.memory, key)[:n]), key
         assert a.rng.bit_generator.state == b.rng.bit_generator.state  # every draw the same
         assert a.opt.state_dict()["state"][0]["step"] == b.opt.state_dict()["state"][0]["step"] == 501  # 100-600
+        if estimator != "known":
+            ea, eb = a.estimator.state_dict(), b.estimator.state_dict()
+            assert ea.keys() == eb.keys() and all(np.array_equal(ea[k], eb[k]) for k in ea)
     # the two seeds really are apart: different weights, different worlds
     assert not torch.equal(together[0].net.encoder[0].weight, together[1].net.encoder[0].weight)
+    if estimator != "known":
+        assert not np.array_equal(
+            together[0].estimator.state_dict()["counts"], together[1].estimator.state_dict()["counts"]
+        )
     # a batched run's checkpoint holds its own weights only, and resumes alone
     a_size = (tmp_path / "alone" / "0" / "last.pt").stat().st_size
     b_size = (tmp_path / "together" / "0" / "last.pt").stat().st_size
