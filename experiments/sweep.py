@@ -51,7 +51,7 @@ from planning.atomic import write_json
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 from planning.parallel import describe, one_thread, provenance, run_items
-from planning.world.results import default_out
+from planning.world.results import default_out, file_prefix
 from planning.world.runner import evaluate
 
 from .registry import agent_class, agent_options
@@ -221,7 +221,7 @@ def train_items(args, grid: dict, settings: dict) -> tuple[list, list, list]:
         file_in(args.runs, name, "--runs", "a run folder's name")
         if args.deploy:  # learning.export's and experiments.evaluate's default names
             short = rl_name(effective, extra)
-            first = "" if pddl == "restaurant" else f"{pddl}-"
+            first = file_prefix(pddl)
             items[-1]["deploy"] = {
                 "checkpoint": f"{args.checkpoints}/{first}rl-{short}.pt",
                 "figures": f"{args.results}/{first}training-{short}.json",

@@ -73,6 +73,7 @@ from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 from planning.parallel import results_provenance
 from planning.world.preparation import Preparation
+from planning.world.results import file_prefix
 
 MILESTONES = (50_000, 100_000, 250_000, 500_000)
 PRECISION = "float16"
@@ -294,7 +295,7 @@ def default_names(run: Path, gnn: bool) -> tuple[str, str]:
 def domain_prefix(domain: str | None, where) -> str:
     """What an exported file's name starts with: nothing for the restaurant (its committed names stay) or a
     file that names no domain, else the domain's PDDL name and a dash."""
-    return "" if domain in (None, "restaurant") else f"{file_name(domain, where, 'domain')}-"
+    return file_prefix(None if domain is None else file_name(domain, where, "domain"))
 
 
 def rl_name(cfg: dict, varied: str = "") -> str:

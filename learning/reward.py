@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 from planning.errors import DomainError
+from planning.world.results import file_prefix
 
 
 def step_reward(cost: float, completed: bool, scale: float, r_goal: float) -> float:
@@ -45,8 +46,7 @@ def cost_scale(model) -> float:
 def calibration_path(model, results_dir="results") -> Path:
     """Where the calibration of a layout is written: results/calibration-<layout>.json for the restaurant
     (its committed names), results/calibration-<domain>-<layout>.json for any other domain."""
-    name = model.layout if model.name == "restaurant" else f"{model.name}-{model.layout}"
-    return Path(results_dir) / f"calibration-{name}.json"
+    return Path(results_dir) / f"calibration-{file_prefix(model.name)}{model.layout}.json"
 
 
 def goal_reward(model, results_dir="results") -> float:

@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from planning import cli
-from planning.world.results import DEFAULT_PROTOCOL, FAILURE_PROTOCOLS, default_out
+from planning.world.results import DEFAULT_PROTOCOL, FAILURE_PROTOCOLS, default_out, file_prefix
 from planning.world.runner import evaluate
 from planning.world.streams import stream
 
@@ -27,7 +27,7 @@ def reference_path(model, stream: str | None = None) -> str:
     path = REFERENCE.format(layout=model.layout)
     if stream not in (None, "iid"):
         path = path.replace(".json", f"-stream-{stream}.json")
-    return path if model.name == "restaurant" else path.replace("results/", f"results/{model.name}-", 1)
+    return path.replace("results/", f"results/{file_prefix(model.name)}", 1)
 
 
 @dataclass(frozen=True)

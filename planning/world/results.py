@@ -49,6 +49,18 @@ def check_protocol(protocol: str) -> None:
         )
 
 
+UNPREFIXED_DOMAIN = "restaurant"
+"""The one domain whose results, checkpoint and calibration files carry no domain prefix: the thesis's
+reproduction, whose committed names came before any other domain. Every other domain's names start with its
+PDDL name and a dash (`file_prefix`)."""
+
+
+def file_prefix(domain: str | None) -> str:
+    """What the name of a domain's results, checkpoint or calibration file starts with: the PDDL domain's name and
+    a dash, nothing for UNPREFIXED_DOMAIN (or a file that records no domain)."""
+    return "" if domain in (None, UNPREFIXED_DOMAIN) else f"{domain}-"
+
+
 def default_out(agent, model, results_dir="results", protocol: str = DEFAULT_PROTOCOL) -> str:
     """results/<run name>-<layout>.json (the layout once, where the run name already holds it); for any
     domain but the restaurant (whose committed names stay) the domain's name comes first, and a run under
@@ -61,8 +73,7 @@ def results_file(
 ) -> str:
     """`default_out` from the names alone (for tools that name a run's file without building its agent)."""
     base = run_name if layout in run_name else f"{run_name}-{layout}"
-    if domain != "restaurant":
-        base = f"{domain}-{base}"
+    base = f"{file_prefix(domain)}{base}"
     if protocol != DEFAULT_PROTOCOL:
         base = f"{base}-{protocol}"
     return f"{results_dir}/{base}.json"
