@@ -8,7 +8,8 @@ import torch
 
 from learning.encoding import Encoding
 from learning.q.network import build_network
-from learning.q.targets import _Pairs
+from learning.q.replay import COMPLETE, CONTINUE, Replay, mixed_batch
+from learning.q.targets import BoundaryCache, SlotCache, _Pairs, td_targets
 from learning.q.training import Trainer, train_runs
 from learning.q.value import ValueFunction
 from planning.domain.compiler import compile_domain
@@ -87,6 +88,47 @@ def test_every_path_gives_the_networks_q(where):
     assert np.allclose(vf.v_ap(states), v_ap, atol=1e-4)
     if vf.native is not None:
         assert np.allclose(vf.native.v_ap(states), v_ap, atol=1e-4)
+
+
+def test_the_trainers_targets_are_the_double_dqn_targets_of_the_full_observation(grid7):
+    """The trainer's target path (split first layer, per-label heads, slot and boundary caches) against Double DQN
+    written out on the full observation: the online net's argmax over the valid actions, the target net's value
+    there, on the same task within it and under P(τ') over every task at a completion."""
+    enc = Encoding(grid7, "arguments+objects")
+    torch.manual_seed(3)
+    online, target = build_network(enc, 32).eval(), build_network(enc, 32).eval()
+    for p in [*online.parameters(), *target.parameters()]:
+        torch.nn.init.normal_(p, 0.0, 0.3)  # spread the values, so that argmaxes differ between the nets
+    rng = np.random.default_rng(0)
+    packed = enc.pack(grid7.random_walk_states(121, 5, 10))
+    memory, demos = Replay(200, enc.n_words), Replay(1, enc.n_words)
+    for i in range(120):
+        task = int(rng.choice(enc.support))
+        action = int(rng.choice(np.flatnonzero(enc.valid_for(packed[i : i + 1], [task])[0])))
+        memory.add(packed[i], task, action, -0.5, packed[i + 1], COMPLETE if i % 3 == 0 else CONTINUE)
+
+    def q(net, s, task):
+        valid = enc.valid_for(s[None], [task])
+        with torch.no_grad():
+            out = net(torch.from_numpy(enc.observe(s[None], [task])), torch.from_numpy(valid))[0].numpy()
+        return np.where(valid[0], out, -np.inf)
+
+    def double_dqn(s, task):
+        return q(target, s, task)[int(np.argmax(q(online, s, task)))]
+
+    slots, cache, gamma = SlotCache(enc, demos.capacity + memory.capacity, online.mask_bits), BoundaryCache(), 0.97
+    for _ in range(3):  # the later minibatches meet cached slots and completion states
+        batch = mixed_batch(memory, demos, 48, 0.0, rng)
+        y = td_targets(online, target, enc, batch, gamma, "anticipatory", cache, slots).numpy()
+        expect = [
+            r + gamma * double_dqn(s, int(t))
+            if kind == CONTINUE
+            else r + gamma * sum(enc.task_prob[u] * double_dqn(s, int(u)) for u in enc.support)
+            for s, t, r, kind in zip(batch["next_states"], batch["tasks"], batch["rewards"], batch["kinds"])
+        ]
+        assert {CONTINUE, COMPLETE} <= set(batch["kinds"].tolist())
+        assert np.allclose(y, expect, atol=1e-4)
+    assert len(cache)
 
 
 def test_seeds_trained_together_follow_their_single_runs(minimal, tmp_path):
