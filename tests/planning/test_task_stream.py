@@ -2,8 +2,9 @@
 
 import pytest
 
+from planning.domain.batched import BatchedModel
 from planning.errors import DomainError
-from planning.search.optimal import uniform_cost_search
+from planning.search.optimal import optimal_plan
 from planning.world.task_stream import PersistentWorld, TaskStream, draw_tasks
 from tests.examples import START_COSTS
 
@@ -29,7 +30,7 @@ def test_success_applies_consumption(two_room):
     world.state = m.init
     task = m.tasks.get("serve-water(servingtable)")
     world.begin(task)
-    plan = uniform_cost_search(m, world.state, task).plan
+    plan = optimal_plan(BatchedModel(m), world.state, task).plan
     steps = [world.act(a) for a in plan]
     assert steps[-1].completed and world.outcomes[-1].cost == START_COSTS[task.name] and world.outcomes[-1].success
     atoms = set(m.true_atoms(world.state))
