@@ -1,6 +1,6 @@
 """The learners on the second real domain, the persistent blockworld (issue 37), with tiny settings: the
 Double-DQN of both horizons trained, exported and deployed greedily and guided, the simulator benchmark and
-Gymnasium's checker on its environment (the planning tools: test_blockworld_tools.py)."""
+Gymnasium's checker on its environment (the planning tools: test_blockworld_tools.py, the GNN: test_blockworld_gnn.py)."""
 
 import warnings
 

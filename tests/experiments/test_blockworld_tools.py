@@ -1,9 +1,9 @@
 """Every planning tool on the second real domain, the persistent blockworld (issue 37), with tiny settings, one
-command after another as their inputs need: the checker, the oracles, the labelling, the GNN datasets, a GNN
-trained, exported and deployed both ways. The learners are in test_blockworld_learning.py (apart, so that the
-two run on two workers)."""
+command after another as their inputs need: the checker, the sequences' check, the oracles and the planner
+benchmark. The GNN's tools are in test_blockworld_gnn.py and the learners in test_blockworld_learning.py (apart,
+so that the three run on separate workers)."""
 
-from tests.blockworld_copy import LAYOUT, ROOT, played, results, run
+from tests.blockworld_copy import LAYOUT, ROOT, results, run
 
 
 def test_every_planning_tool_runs_on_the_blockworld(bw):
@@ -19,24 +19,5 @@ def test_every_planning_tool_runs_on_the_blockworld(bw):
     run(work, "oracles.clairvoyant", *play, "--K", "2", "--out", "results/k2.json")
     assert results(work, "k2.json")["cost_per_task"] <= myopic["cost_per_task"]
     run(work, "oracles.labelling", *common, "--out", "results/label.json")
-    # the GNN: faithful and augmented datasets, a model, native selection and the GNN value in the search
-    run(work, "learning.gnn_dataset", *common, "--n-states", 6, "--out", "runs/gnn-data")
-    run(
-        work,
-        "learning.gnn_dataset",
-        *common,
-        "--augmented",
-        "--n-states",
-        4,
-        "--n-prepared",
-        4,
-        "--out",
-        "runs/gnn-aug",
-    )
-    run(work, "learning.gnn_train", *common, "--data", "runs/gnn-aug", "--epochs", 1, "--out", "runs/gnn")
-    run(work, "learning.export", "runs/gnn", "--out", "checkpoints/gnn.pt", "--figures", "results/gnn-training.json")
-    run(work, "experiments.evaluate", *play, "--agent", "gnn-native", "--model", "checkpoints/gnn.pt")
-    run(work, "experiments.evaluate", *play, "--agent", "gnn-guided", "--model", "checkpoints/gnn.pt", "--budget", 30)
-    played(work, ["gnn-guided", "gnn-native"])
     # the planner benchmark
     run(work, "oracles.planner_bench", *common, "--calls", 2, "--out", "results/planner.json", "--time-limit", 60)
