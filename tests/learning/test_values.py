@@ -267,13 +267,19 @@ class _ExactOneTask:
     def __init__(self, model):
         from oracles.labelling import Labeller
 
-        self.gamma, self.model, self.labeller = 1.0, model, Labeller(model)
+        self.gamma, self.model, self.labeller, self.labels = 1.0, model, Labeller(model), {}
+
+    def label(self, state):
+        """The labelling oracle's label of a state, labelled once (a search asks again for the states it meets)."""
+        if state not in self.labels:
+            self.labels[state] = self.labeller.label(state)
+        return self.labels[state]
 
     def q_max(self, states, task):
         return self.v_ap(states)
 
     def v_ap(self, states):
-        return np.array([-self.labeller.label(s).c_ap / self.model.cost_scale for s in states])
+        return np.array([-self.label(s).c_ap / self.model.cost_scale for s in states])
 
 
 def _walk_dataset(model, folder, n):
@@ -328,7 +334,7 @@ class _ExactOneTaskUnder(_ExactOneTask):
         from oracles.labelling import expected_cost
 
         p = self.q if self.q is not None else np.asarray(self.model.tasks.probabilities, dtype=float)
-        c = np.array([expected_cost(p / p.sum(), self.labeller.label(s).costs) for s in states])
+        c = np.array([expected_cost(p / p.sum(), self.label(s).costs) for s in states])
         return -np.round(c, 9) / self.model.cost_scale
 
 
