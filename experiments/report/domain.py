@@ -477,6 +477,29 @@ TRAINING_TEXT = (
 )
 
 
+def rankings(name: str) -> list[str]:
+    """How this domain's values rank labelled states by their exact C_AP, and what the exact C_AP would gain
+    on gnn-native's candidates: the restaurant's two reference tables over this domain's results files."""
+    from experiments.report.reference import native_candidates, value_ranking
+    from planning.world.results import file_prefix
+
+    prefix = file_prefix(name)
+    if not any(Path("results").glob(f"{prefix}value-rank-*.json")):
+        return [
+            "Not measured yet: `python -m learning.values.rank --domain DOMAIN --data DATASET --value CKPT ...` "
+            "(DATASET: a `learning.gnn_dataset` folder, e.g. `--augmented --n-states 100 --n-prepared 300`)."
+        ]
+    spreads = []
+    for path in sorted(Path("results").glob(f"{prefix}value-rank-*.json")):
+        c = (read_finished(path) or {}).get("c_ap")
+        if c:
+            spreads.append(
+                f"- `{path.name}`: the states' exact C_AP, mean {num(c['mean'], 1)} ± {num(c['std'], 1)} "
+                f"(std), from {num(c['min'], 1)} to {num(c['max'], 1)}"
+            )
+    return [*value_ranking(prefix), *(["", *spreads] if spreads else []), *native_candidates(prefix)]
+
+
 def training(ctx, layouts) -> list[str]:
     """A row per exported Q-learning run of this domain (results/<domain>-training-*.json) on `layouts`: its task
     encoding, steps trained of those configured, every greedy check and the training success."""
@@ -660,6 +683,10 @@ def report(layouts, ctx, command: str) -> str:
         CAPACITY_TEXT,
         "",
         *capacity(ctx, layouts),
+        "",
+        "## How the values rank states (exact C_AP)",
+        "",
+        *rankings(name),
         "",
         "## Training runs: the learning curves",
         "",

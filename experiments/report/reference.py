@@ -508,12 +508,13 @@ def gnn_datasets() -> list[str]:
     )
 
 
-def native_candidates() -> list[str]:
-    """The GNN's estimate on the candidates gnn-native scored, against their exact C_AP (runs with --exact-labels)."""
+def native_candidates(prefix: str = "") -> list[str]:
+    """The GNN's estimate on the candidates gnn-native scored, against their exact C_AP (runs with --exact-labels);
+    prefix: the results files' domain prefix (`results_file`: "" for the restaurant, "blockworld-")."""
     from learning.agents.gnn_native import candidate_accuracy
 
     body = []
-    for path in sorted(Path("results").glob("gnn-native-*.json")):
+    for path in sorted(Path("results").glob(f"{prefix}gnn-native-*.json")):
         d = read(path)
         a = candidate_accuracy(d.get("per_task", [])) if d else None
         if a is None:
@@ -696,10 +697,11 @@ def target_bound_runs() -> list[str]:
     ]
 
 
-def value_ranking() -> list[str]:
-    """Rank agreement of each value's V_AP with the exact -C_AP (`results/value-rank-*.json`, learning.values.rank)."""
+def value_ranking(prefix: str = "") -> list[str]:
+    """Rank agreement of each value's V_AP with the exact -C_AP (`results/<prefix>value-rank-*.json`,
+    learning.values.rank); prefix as `native_candidates`'."""
     body = []
-    for path in sorted(Path("results").glob("value-rank-*.json")):
+    for path in sorted(Path("results").glob(f"{prefix}value-rank-*.json")):
         d = read(path)
         for row in (d or {}).get("values", []):
             a = row["all"]
@@ -739,7 +741,8 @@ def value_ranking() -> list[str]:
         "The states of a GNN dataset with their exact one-task C_AP (labelling oracle); each value's V_AP against "
         "−C_AP. The search uses a value only to rank the terminal states it reaches, so this is the property "
         "that matters to it. A one-task value's slope is 1/cost_scale (0.01); a multi-task value credits a lower "
-        "next-task cost over later tasks too, so its slope is larger. A GNN is scored on its own validation split. "
+        "next-task cost over later tasks too, so its slope is larger. A GNN is scored on its validation split where the dataset is its own, "
+        "on every state of another dataset. "
         "`python -m learning.values.rank --data runs/gnn/<layout>-<variant> --value CKPT [--value CKPT ...]`.",
     ]
 

@@ -17,7 +17,9 @@ whose V_AP is -Ĉ_AP, by what its file says; `exact` on small domains):
 - the slope of V_AP on -C_AP (least squares, RL units per PDDL unit): a
   multi-task value credits a lower next-task cost over the tasks after it too,
   so its slope exceeds 1/cost_scale, the one-task credit;
-- the same per kind of state (an augmented dataset's prepared states apart).
+- the same per kind of state (an augmented dataset's prepared states apart);
+- once per dataset, the spread of the states' C_AP (mean, std, range): how much
+  preparedness varies among them at all.
 
 C_AP is a one-task cost, V_AP a discounted multi-task value, so the two need not
 agree state by state; a value that ranks prepared states below unprepared ones
@@ -59,6 +61,7 @@ from planning.atomic import write_json
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 from planning.parallel import results_provenance
+from planning.world.results import file_prefix
 
 
 def agreement(v: np.ndarray, c_ap: np.ndarray) -> dict:
@@ -77,6 +80,13 @@ def agreement(v: np.ndarray, c_ap: np.ndarray) -> dict:
         "pair_agreement": round(pair_agreement(v, -c_ap), 4),
         "slope_rl_per_pddl": round(float(slope), 5),
     }
+
+
+def spread(c_ap: np.ndarray) -> dict:
+    """How much the states' exact C_AP varies (PDDL units, finite labels): what any value could tell apart,
+    and so what a search that prepares could gain per next task at most."""
+    c = c_ap[np.isfinite(c_ap)]
+    return {k: round(float(f(c)), 1) for k, f in (("mean", np.mean), ("std", np.std), ("min", np.min), ("max", np.max))}
 
 
 def rank(values: list, data: str, domain: str) -> dict:
@@ -102,6 +112,7 @@ def rank(values: list, data: str, domain: str) -> dict:
         "cost_scale": model.cost_scale,
         "states": len(states),
         "kinds": {k: int((kinds == k).sum()) for k in dict.fromkeys(kinds.tolist())},
+        "c_ap": spread(labels),
         "values": [],
     }
     for value in values:
@@ -264,13 +275,21 @@ def conditional(values: list, data: str, domain: str, stream_name: str) -> dict:
     }
 
 
+def _data_domain(data: str) -> str | None:
+    """The PDDL domain a dataset folder was labelled in (a one-line error for a folder that is no dataset)."""
+    from learning.gnn.dataset import read_meta
+
+    return read_meta(data).get("domain")
+
+
 def main() -> None:
     p = cli.parser(
         __doc__.splitlines()[0],
         layout=False,
         seed=True,
         helps={
-            "out": "results JSON (default: results/value-rank-<dataset folder name>.json)",
+            "out": "results JSON (default: results/value-rank-<dataset folder name>.json, after the domain's name "
+            "and a dash for a domain other than the restaurant)",
             "seed": "which states --credit draws (default: %(default)s)",
         },
     )
@@ -291,7 +310,7 @@ def main() -> None:
     def run():
         args = p.parse_args()
         torch.set_num_threads(1)
-        out = Path(args.out or f"results/value-rank-{Path(args.data).name}.json")
+        out = Path(args.out or f"results/{file_prefix(_data_domain(args.data))}value-rank-{Path(args.data).name}.json")
         cli.check_writable(out)
         r = rank(args.value, args.data, args.domain)
         for row in r["values"]:

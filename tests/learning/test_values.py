@@ -206,16 +206,13 @@ def test_the_reference_is_any_registered_planner(minimal):
         cls.from_args(agent_options(cls, value="exact", reference_agent="clairvoyant"), minimal)
 
 
-def test_value_rank_and_bench_bn_take_a_value_by_name(minimal, tmp_path, monkeypatch):
-    """value_rank scores `exact` against labels made from its own V_AP (a perfect ranking); bench_bn
-    runs the search on it along a seeded stream and records its kind."""
-    from learning.agents import bench_bn
-    from learning.values import rank as value_rank
+def _exactly_labelled(minimal, data: Path) -> Path:
+    """A learning.gnn_dataset-like folder of the minimal grid's random-walk states labelled with C_AP = -100 V_AP
+    of the exact value (the ranking `exact` gets right, Spearman 1)."""
     from planning.domain.grounding import atom_text
 
     exact = ExactValue(minimal)
     states = list(dict.fromkeys(minimal.random_walk_states(60, seed=0)))
-    data = tmp_path / "data"
     data.mkdir()
     (data / "meta.json").write_text(
         json.dumps(
@@ -228,6 +225,41 @@ def test_value_rank_and_bench_bn_take_a_value_by_name(minimal, tmp_path, monkeyp
             }
         )
     )
+    return data
+
+
+def test_value_rank_names_its_file_after_the_domain_and_the_domain_report_shows_it(minimal, tmp_path, monkeypatch):
+    """Another domain's ranking is results/<domain>-value-rank-<data>.json (the restaurant's report reads
+    value-rank-*.json), and that domain's report (experiments.report.domain) tables it; without one it says
+    how to make it."""
+    from experiments.report.domain import rankings
+    from learning.values import rank as value_rank
+
+    domain = str(Path("domains/minimal").resolve())
+    data = _exactly_labelled(minimal, tmp_path / "walk")
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "results").mkdir()
+    assert rankings(minimal.name)[0].startswith("Not measured yet")
+    monkeypatch.setattr(sys, "argv", ["rank", "--domain", domain, "--data", str(data), "--value", "exact"])
+    value_rank.main()
+    written = [f.name for f in (tmp_path / "results").iterdir()]
+    assert written == [f"{minimal.name}-value-rank-walk.json"] and minimal.name != "restaurant"
+    lines = rankings(minimal.name)
+    row = next(line for line in lines if written[0] in line)
+    assert "| grid | `exact` |" in row and "| 1.000 | 1.000 | 100.0% |" in row
+    c = -100 * ExactValue(minimal).v_ap(list(dict.fromkeys(minimal.random_walk_states(60, seed=0))))
+    spread = json.loads((tmp_path / "results" / written[0]).read_text())["c_ap"]
+    assert spread == pytest.approx({"mean": c.mean(), "std": c.std(), "min": c.min(), "max": c.max()}, abs=0.051)
+    assert any(line.startswith(f"- `{written[0]}`: the states' exact C_AP, mean ") for line in lines)
+
+
+def test_value_rank_and_bench_bn_take_a_value_by_name(minimal, tmp_path, monkeypatch):
+    """value_rank scores `exact` against labels made from its own V_AP (a perfect ranking); bench_bn
+    runs the search on it along a seeded stream and records its kind."""
+    from learning.agents import bench_bn
+    from learning.values import rank as value_rank
+
+    data = _exactly_labelled(minimal, tmp_path / "data")
     row = value_rank.rank(["exact"], str(data), "domains/minimal")["values"][0]
     assert row["value"] == "exact" and row["kind"] == "ExactValue"
     assert row["all"]["spearman"] == 1.0 and row["all"]["slope_rl_per_pddl"] == pytest.approx(0.01)
