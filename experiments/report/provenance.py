@@ -112,3 +112,17 @@ def closing(results: dict, sections: dict | None = None) -> list[str]:
         *files_table({**results, **(sections or {})}),
         "",
     ]
+
+
+def notes(path: Path) -> list[str]:
+    """The appendix of hand-kept notes with no generator yet, included verbatim (nothing where the file is absent)."""
+    if not path.is_file():
+        return []
+    return [
+        "## Appendix: hand-kept notes (not generated)",
+        "",
+        f"Included verbatim from `{path}`; each note names the results file it reads.",
+        "",
+        path.read_text().strip(),
+        "",
+    ]

@@ -292,14 +292,6 @@ def report(layouts, ctx: Context, out: Path, command: str) -> str:
     for title, body in reference.everything(layouts, ckpts, sha256).items():
         lines += [f"## {title}", "", *body, ""]
     lines += provenance.closing(results, stream_results)
-    if NOTES.is_file():
-        lines += [
-            "## Appendix: hand-kept notes (not generated)",
-            "",
-            f"Included verbatim from `{NOTES}`; each note names the results file it reads.",
-            "",
-            NOTES.read_text().strip(),
-            "",
-        ]
+    lines += provenance.notes(NOTES)
     lines += [f"<!-- generated in {time.perf_counter() - started:.1f} s -->", ""]
     return "\n".join(lines)

@@ -76,6 +76,15 @@ def test_report_only_on_the_minimal_domain(minimal_copy, monkeypatch, capsys):
     assert "| Myopic oracle (Fast Downward) | not run" in text
     # a learned value is expected with three seeds before any is trained
     assert "| Anticipatory RL (guided) | not run ([commands](#runs-not-yet-made)) | — | — | 0 of 3 | — |" in text
+    assert "hand-kept notes (not generated)" not in text
+    # the domain's hand-kept notes, where it has some, close its report verbatim
+    (minimal_copy / "docs").mkdir()
+    (minimal_copy / "docs" / "results-minimal-notes.md").write_text("**A note** (`results/x.json`): read by hand.\n")
+    assert run_reproduce(monkeypatch, "--domain", "minimal", "--report-only", "--out", "out/report.md") == 0
+    text = (minimal_copy / "out" / "report.md").read_text()
+    assert "## Appendix: hand-kept notes (not generated)" in text
+    assert "Included verbatim from `docs/results-minimal-notes.md`" in text
+    assert "**A note** (`results/x.json`): read by hand.\n" in text.split("## Provenance")[1]
 
 
 def test_a_played_row_is_reported(minimal_copy, monkeypatch):
