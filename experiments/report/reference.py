@@ -697,6 +697,17 @@ def target_bound_runs() -> list[str]:
     ]
 
 
+def scored_on(note: str | None) -> str:
+    """Which states a model trained on labelled states was scored on (`learning.values.rank.held_out`), in a cell."""
+    if not note:
+        return ""
+    if note.startswith("the validation split"):
+        return " (its validation split)"
+    if note.startswith("every state"):
+        return " (its training states not left out: its dataset was not at hand)"
+    return " (outside its training set)"
+
+
 def value_ranking(prefix: str = "") -> list[str]:
     """Rank agreement of each value's V_AP with the exact -C_AP (`results/<prefix>value-rank-*.json`,
     learning.values.rank); prefix as `native_candidates`'."""
@@ -711,7 +722,7 @@ def value_ranking(prefix: str = "") -> list[str]:
                     f"`{path.name}`",
                     d["layout"],
                     f"`{row['value']}`",
-                    a["states"],
+                    f"{a['states']:,}" + scored_on(row.get("scored_on")),
                     num(a.get("spearman"), 3),
                     num(a.get("kendall"), 3),
                     pct(a.get("pair_agreement"), 1, False),
@@ -741,8 +752,9 @@ def value_ranking(prefix: str = "") -> list[str]:
         "The states of a GNN dataset with their exact one-task C_AP (labelling oracle); each value's V_AP against "
         "−C_AP. The search uses a value only to rank the terminal states it reaches, so this is the property "
         "that matters to it. A one-task value's slope is 1/cost_scale (0.01); a multi-task value credits a lower "
-        "next-task cost over later tasks too, so its slope is larger. A GNN is scored on its validation split where the dataset is its own, "
-        "on every state of another dataset. "
+        "next-task cost over later tasks too, so its slope is larger. A GNN is scored on the states it did not learn from: its validation split "
+        "where the dataset is its own, the states outside its training set on another one (the states column says "
+        "which). "
         "`python -m learning.values.rank --data runs/gnn/<layout>-<variant> --value CKPT [--value CKPT ...]`.",
     ]
 

@@ -24,7 +24,8 @@ whose V_AP is -Ĉ_AP, by what its file says; `exact` on small domains):
 C_AP is a one-task cost, V_AP a discounted multi-task value, so the two need not
 agree state by state; a value that ranks prepared states below unprepared ones
 on a whole kind of states does not know that preparation. A GNN checkpoint
-trained on these states is scored on its validation split only.
+trained on these states is scored on its validation split only, on another
+dataset on the states outside its training set (`held_out`).
 
 `--credit ATOM` asks about one preparation, e.g. `--credit "(has-water jar_0)"`: of
 the labelled states where ATOM is false, up to `--credit-states` (drawn with
@@ -89,6 +90,27 @@ def spread(c_ap: np.ndarray) -> dict:
     return {k: round(float(f(c)), 1) for k, f in (("mean", np.mean), ("std", np.std), ("min", np.min), ("max", np.max))}
 
 
+def held_out(cfg: dict, data: str, states: list, model) -> tuple[np.ndarray, str]:
+    """Which of a dataset's states a model trained on the dataset `cfg["data"]` (a learning.gnn_train config) did
+    not learn from, and how they were chosen: its validation split where `data` is that dataset; else every state
+    outside that dataset (another dataset made alike holds many of the same states); every state, said so, where
+    that dataset is not at hand."""
+    from learning.gnn.dataset import read_meta
+    from learning.gnn.training import split
+
+    trained = Path(cfg.get("data", ""))
+    if trained.resolve() == Path(data).resolve():
+        _, val = split(len(states), int(cfg.get("seed", 0)), float(cfg.get("val_fraction", 0.2)))
+        only = np.zeros(len(states), dtype=bool)
+        only[val] = True
+        return only, "the validation split of its own training run"
+    if not (trained / "meta.json").is_file():
+        return np.ones(len(states), dtype=bool), f"every state: its training set ({trained}) is not here to leave out"
+    seen = {model.state_from_atoms(a) for a in read_meta(trained).get("atoms", [])}
+    unseen = np.array([s not in seen for s in states], dtype=bool)
+    return unseen, f"the {int(unseen.sum())} states not in its training set ({trained})"
+
+
 def rank(values: list, data: str, domain: str) -> dict:
     """The figures of the module's docstring, per value (a value's name, KIND:PATH, KIND or a checkpoint
     path, or any object of the Value protocol), over the dataset's labelled states."""
@@ -122,15 +144,9 @@ def rank(values: list, data: str, domain: str) -> dict:
         keep = np.isfinite(labels)
         row = {"value": name, "kind": type(value).__name__, "gamma": value.gamma}
         payload = getattr(value, "payload", None)
-        if payload is not None and Path(payload.get("config", {}).get("data", "")).resolve() == Path(data).resolve():
-            from learning.gnn.training import split
-
-            cfg = payload["config"]
-            _, val = split(len(states), int(cfg.get("seed", 0)), float(cfg.get("val_fraction", 0.2)))
-            only = np.zeros(len(states), dtype=bool)
-            only[val] = True
-            keep &= only
-            row["scored_on"] = "the validation split of its own training run"
+        if payload is not None:  # a model trained on labelled states is scored on states it did not learn
+            unseen, row["scored_on"] = held_out(payload.get("config", {}), data, states, model)
+            keep &= unseen
         idx = np.flatnonzero(keep)
         v = np.asarray(value.v_ap([states[i] for i in idx]), dtype=float)
         row["all"] = agreement(v, labels[idx])

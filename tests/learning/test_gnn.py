@@ -340,6 +340,29 @@ def test_value_rank_scores_a_gnn_on_its_validation_split_only(minimal, encoder, 
     n = json.loads((dataset / "meta.json").read_text())["n"]
     assert row["scored_on"] == "the validation split of its own training run"
     assert row["all"]["states"] == len(split(n, 0)[1]) < n
+    # on another dataset: only the states outside its training set (datasets made alike share many states)
+    from planning.domain.grounding import atom_text
+
+    meta = json.loads((dataset / "meta.json").read_text())
+    seen = {minimal.state_from_atoms(a) for a in meta["atoms"]}
+    new = [s for s in dict.fromkeys(minimal.random_walk_states(400, 7, walk=40)) if s not in seen][:4]
+    assert len(new) == 4
+    atoms = meta["atoms"][:10] + [[atom_text(k) for k in minimal.true_atoms(s)] for s in new]
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "meta.json").write_text(
+        json.dumps({"domain": minimal.name, "layout": "grid", "n": 14, "c_ap": list(range(14)), "atoms": atoms})
+    )
+    row = vr.rank([str(tmp_path / "best.pt")], str(other), "domains/minimal")["values"][0]
+    assert row["all"]["states"] == 4 and row["scored_on"] == f"the 4 states not in its training set ({dataset})"
+    # its training set not at hand: every state, and the row says so
+    moved = dataset.with_name(dataset.name + "-moved")
+    dataset.rename(moved)
+    try:
+        row = vr.rank([str(tmp_path / "best.pt")], str(other), "domains/minimal")["values"][0]
+    finally:
+        moved.rename(dataset)
+    assert row["all"]["states"] == 14 and row["scored_on"].startswith("every state: its training set")
 
 
 def test_dataset_export_writes_its_key_figures(dataset, tmp_path, capsys, monkeypatch):
