@@ -496,15 +496,7 @@ def rankings(name: str) -> list[str]:
             "Not measured yet: `python -m learning.values.rank --domain DOMAIN --data DATASET --value CKPT ...` "
             "(DATASET: a `learning.gnn_dataset` folder, e.g. `--augmented --n-states 100 --n-prepared 300`)."
         ]
-    spreads = []
-    for path in sorted(Path("results").glob(f"{prefix}value-rank-*.json")):
-        c = (read_finished(path) or {}).get("c_ap")
-        if c:
-            spreads.append(
-                f"- `{path.name}`: the states' exact C_AP, mean {num(c['mean'], 1)} ± {num(c['std'], 1)} "
-                f"(std), from {num(c['min'], 1)} to {num(c['max'], 1)}"
-            )
-    return [*value_ranking(prefix), *(["", *spreads] if spreads else []), *native_candidates(prefix)]
+    return [*value_ranking(prefix), *native_candidates(prefix)]
 
 
 def training(ctx, layouts) -> list[str]:

@@ -711,9 +711,15 @@ def scored_on(note: str | None) -> str:
 def value_ranking(prefix: str = "") -> list[str]:
     """Rank agreement of each value's V_AP with the exact -C_AP (`results/<prefix>value-rank-*.json`,
     learning.values.rank); prefix as `native_candidates`'."""
-    body = []
+    body, spreads = [], []
     for path in sorted(Path("results").glob(f"{prefix}value-rank-*.json")):
         d = read(path)
+        c = (d or {}).get("c_ap")
+        if c:
+            spreads.append(
+                f"- `{path.name}`: the states' exact C_AP, mean {num(c['mean'], 1)} ± {num(c['std'], 1)} "
+                f"(std), from {num(c['min'], 1)} to {num(c['max'], 1)}"
+            )
         for row in (d or {}).get("values", []):
             a = row["all"]
             kinds = "; ".join(f"{k}: {num(b.get('spearman'), 3)}" for k, b in row.get("by_kind", {}).items())
@@ -756,6 +762,7 @@ def value_ranking(prefix: str = "") -> list[str]:
         "where the dataset is its own, the states outside its training set on another one (the states column says "
         "which). "
         "`python -m learning.values.rank --data runs/gnn/<layout>-<variant> --value CKPT [--value CKPT ...]`.",
+        *(["", "How much preparedness varies among a file's states at all:", "", *spreads] if spreads else []),
     ]
 
 
