@@ -564,7 +564,9 @@ def native_candidates(prefix: str = "") -> list[str]:
         + [
             "",
             "An evaluation run with `--exact-labels` labels every scored candidate's end state with the exact C_AP "
-            "(oracles.labelling). *Same choice*: cost + exact C_AP picks the candidate cost + Ĉ_AP picked; *mean "
+            "(oracles.labelling); these end states are not checked against the GNN's training states, so MAE and "
+            "Spearman may count states it learned from. *Same choice*: cost + exact C_AP picks the candidate "
+            "cost + Ĉ_AP picked; *mean "
             "excess*: how much more the chosen candidate's cost + exact C_AP is than the best one's, per task (PDDL "
             "units). *Exact C_AP leaves the myopic plan*, *exact gain*: the same rule with exact labels on the "
             "same candidates: how often it would leave the myopic plan, and its mean saving in cost + C_AP over the "
