@@ -706,7 +706,7 @@ def scored_on(note: str | None) -> str:
     if note.startswith("the validation split"):
         return " (its validation split)"
     if note.startswith("every state"):
-        return " (its training states not left out: its dataset was not at hand)"
+        return " (its training states not left out: its training set was not at hand)"
     return " (outside its training set)"
 
 

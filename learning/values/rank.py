@@ -94,11 +94,13 @@ def held_out(cfg: dict, data: str, states: list, model) -> tuple[np.ndarray, str
     """Which of a dataset's states a model trained on the dataset `cfg["data"]` (a learning.gnn_train config) did
     not learn from, and how they were chosen: its validation split where `data` is that dataset; else every state
     outside that dataset (another dataset made alike holds many of the same states); every state, said so, where
-    that dataset is not at hand."""
+    that dataset is not at hand or not recorded."""
     from learning.gnn.dataset import read_meta
     from learning.gnn.training import split
 
-    trained = Path(cfg.get("data", ""))
+    if not cfg.get("data"):
+        return np.ones(len(states), dtype=bool), "every state: the model records no training set"
+    trained = Path(cfg["data"])
     if trained.resolve() == Path(data).resolve():
         _, val = split(len(states), int(cfg.get("seed", 0)), float(cfg.get("val_fraction", 0.2)))
         only = np.zeros(len(states), dtype=bool)

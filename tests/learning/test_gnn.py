@@ -331,7 +331,9 @@ def test_value_rank_scores_the_exact_ranking_one_and_its_reverse_minus_one(minim
     assert reverse["slope_rl_per_pddl"] == pytest.approx(-0.01)
 
 
-def test_value_rank_scores_a_gnn_on_its_validation_split_only(minimal, encoder, dataset, tmp_path, monkeypatch):
+def test_value_rank_scores_a_gnn_only_on_states_it_did_not_learn(
+    minimal, encoder, dataset, value, tmp_path, monkeypatch
+):
     import learning.values.rank as vr
 
     train(TrainConfig(data=str(dataset), seed=0, epochs=1), tmp_path, progress=False)
@@ -363,6 +365,8 @@ def test_value_rank_scores_a_gnn_on_its_validation_split_only(minimal, encoder, 
     finally:
         moved.rename(dataset)
     assert row["all"]["states"] == 14 and row["scored_on"].startswith("every state: its training set")
+    row = vr.rank([value], str(other), "domains/minimal")["values"][0]  # a model that records no training set
+    assert row["all"]["states"] == 14 and row["scored_on"] == "every state: the model records no training set"
 
 
 def test_dataset_export_writes_its_key_figures(dataset, tmp_path, capsys, monkeypatch):
