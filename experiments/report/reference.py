@@ -699,17 +699,6 @@ def target_bound_runs() -> list[str]:
     ]
 
 
-def scored_on(note: str | None) -> str:
-    """Which states a model trained on labelled states was scored on (`learning.values.rank.held_out`), in a cell."""
-    if not note:
-        return ""
-    if note.startswith("the validation split"):
-        return " (its validation split)"
-    if note.startswith("every state"):
-        return " (its training states not left out: its training set was not at hand)"
-    return " (outside its training set)"
-
-
 def value_ranking(prefix: str = "") -> list[str]:
     """Rank agreement of each value's V_AP with the exact -C_AP (`results/<prefix>value-rank-*.json`,
     learning.values.rank); prefix as `native_candidates`'."""
@@ -730,7 +719,7 @@ def value_ranking(prefix: str = "") -> list[str]:
                     f"`{path.name}`",
                     d["layout"],
                     f"`{row['value']}`",
-                    f"{a['states']:,}" + scored_on(row.get("scored_on")),
+                    f"{a['states']:,}" + (f" ({row['scored_on']})" if row.get("scored_on") else ""),
                     num(a.get("spearman"), 3),
                     num(a.get("kendall"), 3),
                     pct(a.get("pair_agreement"), 1, False),
