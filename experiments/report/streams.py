@@ -265,6 +265,41 @@ def phase_starts(ctx, layout: str, stream: str) -> list[int]:
     return [f for f, _ in stream_of(ctx.model(layout), stream).phases[1:]]
 
 
+def tracking_table(ctx, layout: str, stream: str, kind: str) -> list[str]:
+    """How far each estimate is from the stream's own next-task distribution on its canonical sequences
+    (`planning.world.estimators.tracking`, fed as the guided agent feeds it: a fresh estimate per sequence),
+    at a few positions: around the last phase's start on a drifting stream, along the sequence otherwise."""
+    from planning.world import sequences
+    from planning.world.estimators import build, tracking
+    from planning.world.streams import stream as stream_of
+
+    model = ctx.model(layout)
+    s = stream_of(model, stream)
+    tasks = [q.tasks for q in sequences.load(model, stream_name=None if stream == "iid" else stream)]
+    starts = phase_starts(ctx, layout, stream)
+    change, last = (starts[-1] if starts else None), min(map(len, tasks)) - 1
+    positions = (change - 1, change, change + 5, change + 10, last) if change else (1, 5, 10, last // 2, last)
+    positions = [p for p in positions if 1 <= p <= last]
+    made = [("known", 1.0), *ESTIMATORS[kind]]
+    body = []
+    for name, forget in made:
+        d = tracking(lambda name=name, forget=forget: build(name, model, s, forget=forget), s, tasks)
+        label = "known P (the thesis's)" if name == "known" else estimator_label(name, forget)
+        cells = [f"{d['types'][p - 1]:.2f} / {d['instances'][p - 1]:.2f}" for p in positions]
+        body.append([label, *cells, f"{d['types'].mean():.2f} / {d['instances'].mean():.2f}"])
+    return [
+        "How far each estimate is from the stream's own next-task distribution, as the deployed agent feeds it "
+        f"(a fresh estimate per sequence; mean over the {len(tasks)} canonical sequences): the total-variation "
+        "distance over task types / over task instances (what V_AP sums over), before task p is drawn "
+        "(`planning.world.estimators.tracking`)"
+        + (f"; the last phase starts at task {change}" if change else "")
+        + ". A learned estimate can help the search only where it is nearer the stream than the known P is.",
+        "",
+        *table(["estimate", *(f"p = {p}" for p in positions), f"mean, p = 1–{last}"], body),
+        "",
+    ]
+
+
 def missing(results: dict) -> list[str]:
     """The runs the section lacks, with the commands that train and evaluate them."""
     from experiments.report.tables import missing_runs
@@ -351,6 +386,7 @@ def section(ctx, results: dict, folder: Path) -> list[str]:
         tests = statistics({f"{layout}, {stream}": rows}, pairs, thesis=False, same_seeds=True)
         lines += [*(line.replace("(#runs-not-yet-made)", "(#stream-runs-not-yet-made)") for line in tests), ""]
         lines += ranking(layout, stream)
+        lines += tracking_table(ctx, layout, stream, kind)
         if kind == "drift":
             starts = phase_starts(ctx, layout, stream)
             if starts:

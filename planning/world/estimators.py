@@ -157,3 +157,28 @@ def build(name: str | None, model, stream=None, prior: float = 1.0, forget: floa
     if name == "markov":
         return Markov(model, stream)
     return ESTIMATORS[name](model, prior, forget)
+
+
+def tracking(make, stream, sequences: list) -> dict:
+    """How far an estimate is from the stream's own next-task distribution along task sequences, fed as the
+    guided agent feeds it (`learning.agents.guided`): a fresh estimator (`make()`) per sequence that has seen
+    tasks 0 to p − 1 when it predicts task p. At each position p ≥ 1, the total-variation distance
+    ½ Σ |P̂(· | task p − 1) − P(· | task p − 1, p)| between its prediction and the stream's, over task types
+    and over task instances (what V_AP sums over). Returns {"types": (n − 1,), "instances": (n − 1,)}: the
+    mean over the sequences at positions 1 to n − 1 (n: the shortest sequence's length)."""
+    n = min(len(tasks) for tasks in sequences)
+    kinds = np.maximum(stream.type_of, 0)
+    drawn = stream.type_of >= 0
+
+    def by_type(p: np.ndarray) -> np.ndarray:
+        return np.bincount(kinds, weights=np.where(drawn, p, 0.0), minlength=len(stream.types))
+
+    types, instances = np.zeros((len(sequences), n - 1)), np.zeros((len(sequences), n - 1))
+    for i, tasks in enumerate(sequences):
+        estimator = make()
+        for p in range(1, n):
+            estimator.observe(tasks[p - 1])
+            got, true = estimator.probabilities(tasks[p - 1]), stream.probabilities(tasks[p - 1], p)
+            instances[i, p - 1] = 0.5 * np.abs(got - true).sum()
+            types[i, p - 1] = 0.5 * np.abs(by_type(got) - by_type(true)).sum()
+    return {"types": types.mean(0), "instances": instances.mean(0)}

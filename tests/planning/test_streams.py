@@ -13,7 +13,7 @@ from scipy import stats
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 from planning.world import sequences
-from planning.world.estimators import build
+from planning.world.estimators import build, tracking
 from planning.world.streams import stationary, stream, streams
 from planning.world.task_stream import TaskStream, draw_tasks
 from tests.conftest import MINIMAL
@@ -198,3 +198,27 @@ def test_the_markov_estimators_condition_on_the_task_before(tmp_path):
     assert after_c[b.index] == pytest.approx(3 / 5)  # c -> b twice, plus 1 pseudo-count in 5
     assert after_b[c.index] == pytest.approx(3 / 5)  # b -> c twice (one after the restart), b -> b never
     assert learned.counts.sum() == 4
+
+
+def test_tracking_measures_how_far_an_estimate_is_from_the_stream(tmp_path):
+    model = grid_with_streams(tmp_path)  # clear(c) 0.3, deliver(b) 0.56, deliver(a) 0.14
+    shift = stream(model, "shift")  # clear until position 10, then deliver (b 0.8, a 0.2)
+    c, b = model.tasks.get("clear(c)"), model.tasks.get("deliver(b)")
+    seq = [c] * 10 + [b] * 10
+    known = tracking(lambda: build("known", model), shift, [seq])
+    assert len(known["types"]) == 19  # positions 1 to 19
+    assert np.allclose(known["types"][:9], 0.7) and np.allclose(known["instances"][:9], 0.7)
+    assert np.allclose(known["types"][9:], 0.3) and np.allclose(known["instances"][9:], 0.5 * (0.3 + 0.24 + 0.06))
+    counted = tracking(lambda: build("empirical", model), shift, [seq, seq])  # prior 1: a third on each instance
+    p = np.arange(1, 10)
+    assert np.allclose(counted["types"][:9], (2 / 3) / (p + 1))  # p clears seen: 1 - (p + 1/3) / (p + 1)
+    assert counted["instances"][9] == pytest.approx(31 / 33)  # ten clears seen, a delivery due
+    assert counted["types"][14] == pytest.approx(31 / 48)  # position 15: clear 10 + 1/3 of 16
+    forgetful = tracking(lambda: build("empirical", model, forget=0.5), shift, [seq])
+    left = 2 * (1 - 0.5**10) * 0.5**5  # the clears' weight after five deliveries
+    assert forgetful["types"][14] == pytest.approx((left + 1 / 3) / (left + 2 * (1 - 0.5**5) + 1))
+    assert forgetful["types"][14] < counted["types"][14] / 4  # forgetting recovers after the change (the prior stays)
+    alternate = stream(model, "alternate")
+    drawn = draw_tasks(model, 5, 30, alternate)
+    exact = tracking(lambda: build("markov", model, alternate), alternate, [drawn])
+    assert np.array_equal(exact["instances"], np.zeros(29))  # the known table is the stream's own
