@@ -392,6 +392,7 @@ def benchmarks() -> list[str]:
         "A training step is one ε = 0.05 acting step and one update of batch 128 (the thesis's ratio); "
         "the target is 140 steps/s, a 500k-step run in an hour.",
     ] + notes
+    out += seeds_together()
     out += gnn_datasets()
     out += ["", "### GNN estimator", ""]
     body, maes = [], {}
@@ -453,6 +454,50 @@ def benchmarks() -> list[str]:
         "the training run's (`results/training-gnn-*.json`), at whatever load the machine had.",
     ]
     return out + native_candidates()
+
+
+def seeds_together() -> list[str]:
+    """Several seeds trained in one process (`learning.q.bench --seeds S`): their aggregate updates/s against one
+    seed alone, beside the most batching could give while the matrix products keep their rate. S seeds do S times
+    the arithmetic; if everything else were shared, S updates would cost S·m + (1 − m) single updates, m the
+    matrix products' share of one update in the layout's single-seed benchmark (competent regime, as here)."""
+    body, notes = [], []
+    for layout in LAYOUTS:
+        path = f"results/dqn-bench-seeds-{layout}.json"
+        d = read(path)
+        if d is None:
+            continue
+        single = read(f"results/dqn-bench-{layout}.json") or {}
+        for h, r in d["seeds"].items():
+            m = single.get(h, {}).get("competent", {}).get("matmul_share")
+            S = r["seeds"]
+            body.append(
+                [
+                    layout,
+                    h,
+                    S,
+                    num(r["single_updates_per_s"], 1),
+                    num(r["aggregate_updates_per_s"], 1),
+                    f"{r['ratio']:.2f}×",
+                    "not measured" if m is None else f"{S / (S * m + 1 - m):.2f}× (m = {pct(m, 0, False)})",
+                ]
+            )
+        command = (d.get("provenance") or {}).get("command", "python -m learning.q.bench --seeds S")
+        notes.append(f"`{path}` (`{command}`), {d['threads']} thread, CPU time, alternating rounds.")
+    if not body:
+        return []
+    head = ["layout", "horizon", "seeds", "one seed: updates/s", "in one process: updates/s in all", "ratio", "ceiling"]
+    return [
+        "",
+        "Seeds trained together in one process (`learning.q.seeds`, the competent regime): the ratio of their "
+        "aggregate updates/s to one seed's; the ceiling is what batching could give if everything but the matrix "
+        "products were shared and they kept their rate, S / (S·m + 1 − m) with m their share of one update above: "
+        "batching saves only the rest of an update, and the products above already run at tens of GFLOPS.",
+        "",
+        *table(head, body),
+        "",
+        *notes,
+    ]
 
 
 def gnn_datasets() -> list[str]:

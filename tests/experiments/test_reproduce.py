@@ -484,3 +484,30 @@ def test_table_a_5_reads_each_discount_runs_training_curve_greedy_and_guided_fil
 
 def stats_std(a: float, b: float) -> float:
     return abs(a - b) / math.sqrt(2)  # the sample standard deviation of two values
+
+
+def test_seeds_trained_together_are_reported_beside_their_ceiling(tmp_path, monkeypatch):
+    """The batched trainer's ratio and the most batching could give from the single-seed matrix-product share:
+    4 seeds at m = 0.5 cost 4 · 0.5 + 0.5 = 2.5 single updates, a ceiling of 1.60×."""
+    from experiments.report.reference import seeds_together
+
+    monkeypatch.chdir(tmp_path)
+    assert seeds_together() == []  # no benchmark, no table
+    Path("results").mkdir()
+    r = {"seeds": 4, "single_updates_per_s": 100.0, "aggregate_updates_per_s": 120.0, "ratio": 1.2}
+    seeds = {"threads": 1, "seeds": {"anticipatory": r}, "provenance": {"command": "python -m learning.q.bench X"}}
+    Path("results/dqn-bench-seeds-two-room.json").write_text(json.dumps(seeds))
+    Path("results/dqn-bench-two-room.json").write_text(
+        json.dumps({"anticipatory": {"competent": {"matmul_share": 0.5}}})
+    )
+    row = next(x for x in seeds_together() if x.startswith("| two-room |"))
+    assert [c.strip() for c in row.strip("|").split("|")] == [
+        "two-room",
+        "anticipatory",
+        "4",
+        "100.0",
+        "120.0",
+        "1.20×",
+        "1.60× (m = 50%)",
+    ]
+    assert any("`python -m learning.q.bench X`" in x for x in seeds_together())
