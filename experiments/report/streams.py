@@ -19,7 +19,8 @@ The questions each table answers are the issue's: on a Markov stream, does condi
 just done beat the i.i.d. assumption (Wilcoxon over sequences against the thesis's agent), and what share of
 the clairvoyant K = 2 saving does it recover; on the i.i.d. stream, how close does the empirical estimate come
 to the known P; on a drifting stream, does forgetting win after the change (the cost per task over the
-position in the sequence, `figure`, and the mean over the tasks from the last phase's start on).
+position in the sequence, `figure`, the mean over the tasks from the last phase's start on, and the tests of
+each forgetting row against its stationary twin on those tasks, `from_position`).
 Everything a row lacks is listed with the commands that train and evaluate it.
 """
 
@@ -229,6 +230,36 @@ def after_change(rows: dict, change: int) -> list[str]:
     return table(["method", f"tasks 0–{change - 1}", f"tasks {change}–49"], body) if body else []
 
 
+def from_position(rr: RowResult, start: int) -> RowResult:
+    """The row with each results file cut to the tasks at positions `start` on: per sequence, their cost and
+    count (what `experiments.stats` reads), so that the §5.4.3 tests compare the rows after a change."""
+    from dataclasses import replace
+
+    def cut(d: dict | None) -> dict | None:
+        if d is None:
+            return None
+        seqs: dict = {}
+        for r in d.get("per_task", []):
+            if r["index"] >= start:
+                c = seqs.setdefault(r["sequence"], {"id": r["sequence"], "cost": 0.0, "tasks": 0})
+                c["cost"] += r["cost"]
+                c["tasks"] += 1
+        return {**d, "per_sequence": [seqs[i] for i in sorted(seqs)]}
+
+    return RowResult(rr.row, [replace(x, data=cut(x.data)) for x in rr.loaded])
+
+
+def forgetting_pairs(rows: dict) -> list[tuple[str, str]]:
+    """(forgetting row, its stationary twin) for each estimator row that forgets: the drifting stream's question."""
+    return [
+        (key, twin)
+        for key in rows
+        if key.startswith(("est-", "dep-")) and "-forget" in key
+        for twin in [key.split("-forget")[0]]
+        if twin in rows
+    ]
+
+
 def figure(ctx, results: dict, folder: Path) -> dict:
     """{(layout, stream): PNG or None}: the cost per task over the position in the sequence, every drifting
     stream's rows (a vertical line at each phase's start)."""
@@ -365,6 +396,12 @@ def ranking(layout: str, stream: str) -> list[str]:
     return lines
 
 
+def _tests(results: dict, pairs: list) -> list[str]:
+    """The §5.4.3 tests of the pairs, their missing runs linked to this section's list."""
+    tests = statistics(results, pairs, thesis=False, same_seeds=True)
+    return [line.replace("(#runs-not-yet-made)", "(#stream-runs-not-yet-made)") for line in tests]
+
+
 def section(ctx, results: dict, folder: Path) -> list[str]:
     """The report's section on task streams (markdown lines) from `load`'s rows, its figures drawn into `folder`."""
     drawn = figure(ctx, results, folder)
@@ -375,22 +412,31 @@ def section(ctx, results: dict, folder: Path) -> list[str]:
         "The thesis's agent is trained on the i.i.d. stream and weighs V_AP by the layout's P; the estimator "
         "rows are trained on the stream with their estimator and deployed with it (a fresh estimate per "
         "sequence, fed every task posed; `experiments.report.streams`). The tests compare each estimator row "
-        "with the thesis's agent as §5.4.3 does, and again on the seeds both rows have where their seed sets "
+        "with the thesis's agent as §5.4.3 does (and each forgetting row with its stationary twin), and again on "
+        "the seeds both rows have where their seed sets "
         "differ (the thesis's agent has five seeds, an estimator row three: a difference of seeds is not one of "
         "estimators).",
         "",
     ]
     for (layout, stream, kind), rows in results.items():
         lines += [f"### {layout}, stream {stream} ({kind})", "", *stream_table(rows), ""]
-        pairs = [(k, "iid-agent") for k in rows if k.startswith(("est-", "dep-"))]
-        tests = statistics({f"{layout}, {stream}": rows}, pairs, thesis=False, same_seeds=True)
-        lines += [*(line.replace("(#runs-not-yet-made)", "(#stream-runs-not-yet-made)") for line in tests), ""]
+        pairs = [(k, "iid-agent") for k in rows if k.startswith(("est-", "dep-"))] + forgetting_pairs(rows)
+        lines += [*_tests({f"{layout}, {stream}": rows}, pairs), ""]
         lines += ranking(layout, stream)
         lines += tracking_table(ctx, layout, stream, kind)
         if kind == "drift":
             starts = phase_starts(ctx, layout, stream)
             if starts:
-                lines += [*after_change(rows, starts[-1]), ""]
+                change = starts[-1]
+                cut = {key: from_position(rr, change) for key, rr in rows.items()}
+                lines += [*after_change(rows, change), ""]
+                lines += [
+                    f"The same tests on the tasks from the last phase's start on (position {change} on): does "
+                    "forgetting win after the change?",
+                    "",
+                    *_tests({f"{layout}, {stream}, tasks {change}–49": cut}, forgetting_pairs(rows)),
+                    "",
+                ]
             path = drawn.get((layout, stream))
             lines += [
                 f"![cost per task over the sequence, {layout}, {stream}](figures/{path.name})"

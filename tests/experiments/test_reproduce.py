@@ -511,3 +511,28 @@ def test_seeds_trained_together_are_reported_beside_their_ceiling(tmp_path, monk
         "1.60× (m = 50%)",
     ]
     assert any("`python -m learning.q.bench X`" in x for x in seeds_together())
+
+
+def test_a_drifting_streams_rows_are_tested_again_after_the_change():
+    """Two four-task sequences whose change comes at task 2: the forgetting row costs more before it and less
+    after; cut at the change, its results hold only tasks 2 and 3, and it is paired with its stationary twin."""
+    from experiments.report.data import Loaded, RowResult
+    from experiments.report.streams import forgetting_pairs, from_position
+
+    def row(key, costs):  # costs[sequence] = the four tasks' costs
+        per_task = [{"sequence": s, "index": i, "cost": c} for s, cs in enumerate(costs) for i, c in enumerate(cs)]
+        per_sequence = [{"id": s, "cost": sum(cs), "tasks": len(cs)} for s, cs in enumerate(costs)]
+        run = Run("rl-guided", "three-room", out=f"{key}.json", seed=0)
+        data = {"per_task": per_task, "per_sequence": per_sequence}
+        return RowResult(Row(key, key, "three-room", (run,), seeded=True), [Loaded(run, "ok", data)])
+
+    rows = {
+        "iid-agent": row("iid-agent", [[9, 9, 9, 9], [9, 9, 9, 9]]),
+        "est-empirical": row("est-empirical", [[1, 1, 8, 8], [1, 1, 6, 6]]),
+        "est-empirical-forget0.95": row("est-empirical-forget0.95", [[2, 2, 5, 5], [2, 2, 4, 4]]),
+        "dep-empirical-forget0.95": row("dep-empirical-forget0.95", [[2, 2, 5, 5], [2, 2, 4, 4]]),
+    }
+    assert forgetting_pairs(rows) == [("est-empirical-forget0.95", "est-empirical")]  # dep- has no twin here
+    after = from_position(rows["est-empirical-forget0.95"], 2)
+    assert after.used[0]["per_sequence"] == [{"id": 0, "cost": 10.0, "tasks": 2}, {"id": 1, "cost": 8.0, "tasks": 2}]
+    assert rows["est-empirical-forget0.95"].used[0]["per_sequence"][0]["cost"] == 14  # the row itself is uncut
