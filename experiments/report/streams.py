@@ -262,7 +262,8 @@ def forgetting_pairs(rows: dict) -> list[tuple[str, str]]:
 
 def figure(ctx, results: dict, folder: Path) -> dict:
     """{(layout, stream): PNG or None}: the cost per task over the position in the sequence, every drifting
-    stream's rows (a vertical line at each phase's start)."""
+    stream's rows, above how far each estimate is from the stream there (`estimates`, over task instances; a
+    vertical line at each phase's start)."""
     from experiments.report.figures import _save, plt
 
     out = {}
@@ -275,16 +276,20 @@ def figure(ctx, results: dict, folder: Path) -> dict:
         if not lines:
             out[(layout, stream)] = None
             continue
-        fig, ax = plt.subplots(figsize=(7.5, 3.6), layout="constrained")
+        fig, (ax, est) = plt.subplots(2, 1, figsize=(7.5, 6.0), sharex=True, height_ratios=(3, 2), layout="constrained")
         for label, y in lines:
             ax.plot(np.arange(len(y)), y, label=label, lw=1.2)
-        for start in phase_starts(ctx, layout, stream):
-            ax.axvline(start, color="k", lw=0.8, ls="--")
-        ax.set_xlabel("position of the task in its sequence")
+        for label, d in estimates(ctx, layout, stream, kind)[1].items():
+            est.plot(np.arange(1, len(d["instances"]) + 1), d["instances"], label=label, lw=1.2)
+        for a in (ax, est):
+            for start in phase_starts(ctx, layout, stream):
+                a.axvline(start, color="k", lw=0.8, ls="--")
+            a.grid(alpha=0.3)
+            a.legend(fontsize=7)
         ax.set_ylabel("cost per task (mean over sequences and seeds)")
         ax.set_title(f"{layout}, stream {stream}")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
+        est.set_ylabel("estimate's distance to the\nstream (total variation)")
+        est.set_xlabel("position of the task in its sequence")
         out[(layout, stream)] = _save(fig, path)
     return out
 
@@ -296,10 +301,9 @@ def phase_starts(ctx, layout: str, stream: str) -> list[int]:
     return [f for f, _ in stream_of(ctx.model(layout), stream).phases[1:]]
 
 
-def tracking_table(ctx, layout: str, stream: str, kind: str) -> list[str]:
-    """How far each estimate is from the stream's own next-task distribution on its canonical sequences
-    (`planning.world.estimators.tracking`, fed as the guided agent feeds it: a fresh estimate per sequence),
-    at a few positions: around the last phase's start on a drifting stream, along the sequence otherwise."""
+def estimates(ctx, layout: str, stream: str, kind: str) -> tuple[int, dict]:
+    """(sequences, {estimate's label: `planning.world.estimators.tracking` of it}) on the stream's canonical
+    sequences: the known P and each estimator tried on this kind of stream, fed as the guided agent feeds them."""
     from planning.world import sequences
     from planning.world.estimators import build, tracking
     from planning.world.streams import stream as stream_of
@@ -307,20 +311,29 @@ def tracking_table(ctx, layout: str, stream: str, kind: str) -> list[str]:
     model = ctx.model(layout)
     s = stream_of(model, stream)
     tasks = [q.tasks for q in sequences.load(model, stream_name=None if stream == "iid" else stream)]
+    out = {}
+    for name, forget in [("known", 1.0), *ESTIMATORS[kind]]:
+        label = "known P (the thesis's)" if name == "known" else estimator_label(name, forget)
+        out[label] = tracking(lambda name=name, forget=forget: build(name, model, s, forget=forget), s, tasks)
+    return len(tasks), out
+
+
+def tracking_table(ctx, layout: str, stream: str, kind: str) -> list[str]:
+    """How far each estimate is from the stream's own next-task distribution on its canonical sequences
+    (`estimates`: a fresh estimate per sequence), at a few positions: around the last phase's start on a
+    drifting stream, along the sequence otherwise."""
+    n, curves = estimates(ctx, layout, stream, kind)
     starts = phase_starts(ctx, layout, stream)
-    change, last = (starts[-1] if starts else None), min(map(len, tasks)) - 1
+    change, last = (starts[-1] if starts else None), len(next(iter(curves.values()))["types"])
     positions = (change - 1, change, change + 5, change + 10, last) if change else (1, 5, 10, last // 2, last)
     positions = [p for p in positions if 1 <= p <= last]
-    made = [("known", 1.0), *ESTIMATORS[kind]]
     body = []
-    for name, forget in made:
-        d = tracking(lambda name=name, forget=forget: build(name, model, s, forget=forget), s, tasks)
-        label = "known P (the thesis's)" if name == "known" else estimator_label(name, forget)
+    for label, d in curves.items():
         cells = [f"{d['types'][p - 1]:.2f} / {d['instances'][p - 1]:.2f}" for p in positions]
         body.append([label, *cells, f"{d['types'].mean():.2f} / {d['instances'].mean():.2f}"])
     return [
         "How far each estimate is from the stream's own next-task distribution, as the deployed agent feeds it "
-        f"(a fresh estimate per sequence; mean over the {len(tasks)} canonical sequences): the total-variation "
+        f"(a fresh estimate per sequence; mean over the {n} canonical sequences): the total-variation "
         "distance over task types / over task instances (what V_AP sums over), before task p is drawn "
         "(`planning.world.estimators.tracking`)"
         + (f"; the last phase starts at task {change}" if change else "")
