@@ -260,10 +260,10 @@ def forgetting_pairs(rows: dict) -> list[tuple[str, str]]:
     ]
 
 
-def figure(ctx, results: dict, folder: Path) -> dict:
+def figure(ctx, results: dict, folder: Path, tracked: dict) -> dict:
     """{(layout, stream): PNG or None}: the cost per task over the position in the sequence, every drifting
-    stream's rows, above how far each estimate is from the stream there (`estimates`, over task instances; a
-    vertical line at each phase's start)."""
+    stream's rows, above how far each estimate is from the stream there (`tracked[(layout, stream)]`, from
+    `estimates`, over task instances; a vertical line at each phase's start)."""
     from experiments.report.figures import _save, plt
 
     out = {}
@@ -279,7 +279,7 @@ def figure(ctx, results: dict, folder: Path) -> dict:
         fig, (ax, est) = plt.subplots(2, 1, figsize=(7.5, 6.0), sharex=True, height_ratios=(3, 2), layout="constrained")
         for label, y in lines:
             ax.plot(np.arange(len(y)), y, label=label, lw=1.2)
-        for label, d in estimates(ctx, layout, stream, kind)[1].items():
+        for label, d in tracked[(layout, stream)][1].items():
             est.plot(np.arange(1, len(d["instances"]) + 1), d["instances"], label=label, lw=1.2)
         for a in (ax, est):
             for start in phase_starts(ctx, layout, stream):
@@ -318,11 +318,11 @@ def estimates(ctx, layout: str, stream: str, kind: str) -> tuple[int, dict]:
     return len(tasks), out
 
 
-def tracking_table(ctx, layout: str, stream: str, kind: str) -> list[str]:
+def tracking_table(ctx, layout: str, stream: str, tracked: tuple[int, dict]) -> list[str]:
     """How far each estimate is from the stream's own next-task distribution on its canonical sequences
-    (`estimates`: a fresh estimate per sequence), at a few positions: around the last phase's start on a
-    drifting stream, along the sequence otherwise."""
-    n, curves = estimates(ctx, layout, stream, kind)
+    (`tracked`, from `estimates`: a fresh estimate per sequence), at a few positions: around the last phase's
+    start on a drifting stream, along the sequence otherwise."""
+    n, curves = tracked
     starts = phase_starts(ctx, layout, stream)
     change, last = (starts[-1] if starts else None), len(next(iter(curves.values()))["types"])
     positions = (change - 1, change, change + 5, change + 10, last) if change else (1, 5, 10, last // 2, last)
@@ -417,7 +417,8 @@ def _tests(results: dict, pairs: list) -> list[str]:
 
 def section(ctx, results: dict, folder: Path) -> list[str]:
     """The report's section on task streams (markdown lines) from `load`'s rows, its figures drawn into `folder`."""
-    drawn = figure(ctx, results, folder)
+    tracked = {(layout, stream): estimates(ctx, layout, stream, kind) for layout, stream, kind in results}
+    drawn = figure(ctx, results, folder, tracked)
     lines = [
         "Beyond the thesis (its limitations L1 and L4): the task distribution learned online and conditioned on "
         "the task just done. Each table is one layout and stream, on that stream's canonical sequences; the "
@@ -436,7 +437,7 @@ def section(ctx, results: dict, folder: Path) -> list[str]:
         pairs = [(k, "iid-agent") for k in rows if k.startswith(("est-", "dep-"))] + forgetting_pairs(rows)
         lines += [*_tests({f"{layout}, {stream}": rows}, pairs), ""]
         lines += ranking(layout, stream)
-        lines += tracking_table(ctx, layout, stream, kind)
+        lines += tracking_table(ctx, layout, stream, tracked[(layout, stream)])
         if kind == "drift":
             starts = phase_starts(ctx, layout, stream)
             if starts:
