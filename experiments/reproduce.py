@@ -10,8 +10,8 @@ does not (or is unfinished, or lacks sequences the row needs); runs another proc
 is writing, runs whose agent is not registered and runs without a checkpoint
 are left, and listed with their commands. --discount-sweep also trains the
 Table A.5 runs (long); --streams also plays the task-stream section's missing evaluations
-(`experiments.report.streams`: a Fast Downward myopic oracle and clairvoyant windows per declared stream,
-hours). Then, and alone with --report-only (well under a
+(`experiments.report.streams`, on any domain: the internal myopic oracle, clairvoyant windows and the guided
+agents whose checkpoints exist, per layout and stream; hours). Then, and alone with --report-only (well under a
 minute), it writes the report (default docs/results.md) and its figures
 (docs/figures/*.png beside it): `experiments.report.thesis`. The rows, files
 and commands are in `experiments.report.specs`; which files are used and which
@@ -20,8 +20,9 @@ are flagged is `experiments.report.data`'s rule.
 Any other domain folder (--domain; told apart by its PDDL define) gets the
 report of `experiments.report.domain`: its own layouts (default: every layout
 of the folder), the rows and tables that apply to any domain, and a list of
-the thesis comparisons that do not; default output docs/results-<domain>.md,
-no figures. A layout without its canonical sequences is named with the command
+the thesis comparisons that do not, and the task-stream section where the
+folder declares a stream ([streams.<name>]); default output docs/results-<domain>.md,
+figures (a drifting stream's only) in docs/figures/. A layout without its canonical sequences is named with the command
 that writes them, and none of its runs is played.
 """
 
@@ -37,7 +38,7 @@ from tqdm import tqdm
 
 from experiments.report import domain, thesis
 from experiments.report.data import ALL, Context, load_run, run_protocol, writer_pid
-from experiments.report.specs import DISCOUNT_TRAIN, LAYOUTS, discount_runs
+from experiments.report.specs import DISCOUNT_TRAIN, LAYOUTS, RL_SEEDS, discount_runs
 from experiments.report.specs import rows as row_specs
 from planning import cli
 from planning.atomic import read_json, write_json, write_text
@@ -166,8 +167,6 @@ def main() -> None:
     unknown = [x for x in layouts if x not in known]
     if unknown or not layouts:
         raise DomainError("--layouts", f"'{args.layouts}' names no known layout (known: {', '.join(known)})")
-    if args.streams and not restaurant:
-        raise DomainError("--streams", f"plays the restaurant's task-stream section, not {args.domain}'s")
     if args.discount_sweep and not restaurant:
         raise DomainError("--discount-sweep", f"trains the restaurant's Table A.5 runs, not {args.domain}'s")
     command = " ".join(["python -m experiments.reproduce", *map(shlex.quote, sys.argv[1:])])
@@ -182,10 +181,11 @@ def main() -> None:
         )
         written = run_missing(rows, ctx, progress=not args.no_progress, via=command)
         print(f"ran {len(written)} evaluations", file=sys.stderr)
-        if args.streams and restaurant:
+        if args.streams:
             from experiments.report import streams
 
-            extra = [row for rows in streams.load_specs(ctx, layouts) for row in rows]
+            seeds = RL_SEEDS.__getitem__ if restaurant else None  # Appendix A.1's, or those trained
+            extra = [row for rows in streams.load_specs(ctx, playable(ctx, layouts), seeds) for row in rows]
             written = run_missing(extra, ctx, progress=not args.no_progress, via=command)
             print(f"ran {len(written)} task-stream evaluations", file=sys.stderr)
         if args.discount_sweep:
@@ -197,7 +197,7 @@ def main() -> None:
         print(f"wrote {out} and its figures in {time.perf_counter() - start:.1f} s")
     else:
         out = Path(args.out or f"docs/results-{ctx.model(layouts[0]).name}.md")
-        write_text(out, domain.report(layouts, ctx, command))
+        write_text(out, domain.report(layouts, ctx, command, out.parent / "figures"))
         print(f"wrote {out} in {time.perf_counter() - start:.1f} s")
 
 

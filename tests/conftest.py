@@ -5,6 +5,31 @@ from planning.domain.compiler import compile_domain
 RESTAURANT = "domains/restaurant"
 MINIMAL = "domains/minimal"
 
+GRID_STREAMS = """
+[streams.alternate]
+kind = "markov"
+[streams.alternate.transitions]
+clear = { deliver = 0.9, clear = 0.1 }
+deliver = { clear = 0.5, deliver = 0.5 }
+
+[streams.shift]
+kind = "drift"
+blend = "BLEND"
+phases = [
+  { from = 0, types = { clear = 1.0 } },
+  { from = 10, types = { deliver = 1.0 } },
+]
+"""
+
+
+def declare_grid_streams(folder, blend="step", extra=""):
+    """Make a copy of the minimal domain folder draw both task types (clear 0.3, deliver 0.7) and declare two
+    streams: `alternate` (Markov) and `shift` (drifting at task 10, `blend` "step" or "linear")."""
+    toml = (folder / "domain.toml").read_text()
+    toml = toml.replace("[tasks.clear]\nprobability = 0.0", "[tasks.clear]\nprobability = 0.3")
+    toml = toml.replace("[tasks.deliver]\nprobability = 1.0", "[tasks.deliver]\nprobability = 0.7")
+    (folder / "domain.toml").write_text(toml + GRID_STREAMS.replace("BLEND", blend) + extra)
+
 
 @pytest.fixture(scope="session")
 def two_room():

@@ -12,7 +12,8 @@ where their models `checkpoints/<domain>-gnn-<variant>-<layout>-seed<N>.pt` exis
 the names `experiments.evaluate` gives them by default (the domain's name first).
 The tables are Table 5.2's and Table A.4's columns without the thesis's, the
 held-out split, the share of the clairvoyant saving and the §5.4.3 statistics
-on the rows that exist; what only the restaurant has (the thesis's figures, the
+on the rows that exist, and the task-stream section (`experiments.report.streams`) where
+the folder declares a stream; what only the restaurant has (the thesis's figures, the
 three-room ablation of Table 5.3, the discount sweep of Table A.5, the
 restaurant's reference tables) is named as not applicable. The domain's
 hand-kept notes (`docs/results-<domain>-notes.md`), where it has some, close
@@ -25,9 +26,9 @@ import re
 import time
 from pathlib import Path
 
-from experiments.report import provenance, tables
+from experiments.report import provenance, streams, tables
 from experiments.report.data import improvement, load_rows, read_finished
-from experiments.report.specs import HORIZONS, LEAST_SEEDS, Row, Run
+from experiments.report.specs import HORIZONS, LEAST_SEEDS, Row, Run, results_name, rl_seeds, rl_suffix
 from experiments.report.tables import (
     HELD_OUT_HEADER,
     SHARE_TEXT,
@@ -70,44 +71,6 @@ NOT_APPLICABLE = [
     "the restaurant's other reference tables: its labelling, trainer and GNN benchmarks, β selection and the "
     "thesis's minimal example (`python -m experiments.reproduce` reports them).",
 ]
-
-
-def results_name(domain: str, run_name: str, layout: str) -> str:
-    """`planning.world.results.default_out`'s name for a run of this domain."""
-    from planning.world.results import results_file
-
-    return results_file(run_name, domain, layout)
-
-
-def rl_suffix(model) -> str:
-    """What the names of the domain's RL runs end with: the mark of its task encoding where domain.toml [training]
-    names another than the thesis's (`learning.q.training.bound_suffix`), else ''."""
-    from learning.encoding import domain_task_features
-    from learning.q.training import bound_suffix
-
-    return bound_suffix({"task_features": domain_task_features(model)})
-
-
-def rl_seeds(domain: str, layout: str, horizon: str, suffix: str = "") -> list[int]:
-    """The seeds of `checkpoints/<domain>-rl-<horizon>-<layout>-seed<N><suffix>.pt` trained on this domain (its PDDL
-    name as the checkpoint records it; a checkpoint that records none is counted)."""
-    from learning.q.checkpoints import read_checkpoint
-    from planning.errors import DomainError
-
-    seeds = []
-    for path in Path("checkpoints").glob(f"{domain}-rl-{horizon}-{layout}-seed*{suffix}.pt"):
-        m = re.fullmatch(
-            rf"{re.escape(domain)}-rl-{re.escape(horizon)}-{re.escape(layout)}-seed(\d+){re.escape(suffix)}", path.stem
-        )
-        if not m:
-            continue
-        try:
-            recorded = read_checkpoint(path).get("domain")
-        except DomainError:
-            continue
-        if recorded in (None, domain):
-            seeds.append(int(m.group(1)))
-    return sorted(seeds)
 
 
 def gnn_seeds(domain: str, layout: str, variant: str) -> list[int]:
@@ -639,11 +602,20 @@ def sequences_note(ctx, layouts) -> list[str]:
 
 
 # ---- the report -----------------------------------------------------------------------------
-def report(layouts, ctx, command: str) -> str:
-    """The report of `layouts` of the domain folder `ctx.domain`: its markdown."""
+def report(layouts, ctx, command: str, folder: Path = Path("docs/figures")) -> str:
+    """The report of `layouts` of the domain folder `ctx.domain`: its markdown (a drifting stream's figures drawn
+    into `folder`)."""
     started = time.perf_counter()
     name = ctx.model(layouts[0]).name
     results = {layout: load_rows(rows(ctx, layout), ctx) for layout in layouts}
+    stream_results = streams.load(ctx, layouts) if streams.declared(ctx, layouts) else {}
+    stream_lines = (
+        ["## Task streams: unknown, drifting and correlated", "", *streams.section(ctx, stream_results, folder), ""]
+        if stream_results
+        else []
+    )
+    no_streams = "the task-stream section: the folder declares no stream (domain.toml [streams.<name>]);"
+    not_applicable = NOT_APPLICABLE if stream_results else [*NOT_APPLICABLE[:-1], no_streams, NOT_APPLICABLE[-1]]
     summary = []
     for layout in layouts:
         m = ctx.model(layout)
@@ -735,11 +707,12 @@ def report(layouts, ctx, command: str) -> str:
         "",
         *published(ctx, results),
         "",
+        *stream_lines,
         "## Not applicable to this domain",
         "",
-        *(f"- {x}" for x in NOT_APPLICABLE),
+        *(f"- {x}" for x in not_applicable),
         "",
-        *provenance.closing(results),
+        *provenance.closing(results, stream_results),
         *provenance.notes(notes_path(name)),
         f"<!-- generated in {time.perf_counter() - started:.1f} s -->",
         "",

@@ -15,6 +15,7 @@ restaurant and 5 on the three-room (Appendix A.2), GNN seeds 0, 4, 8 and 16
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -233,6 +234,45 @@ def rl_train(horizon: str, layout: str, seed: int) -> str:
     return (
         f"python -m learning.dqn --layout {layout} --horizon {horizon} --seed {seed} && python -m learning.export {run}"
     )
+
+
+def results_name(domain: str, run_name: str, layout: str) -> str:
+    """`planning.world.results.default_out`'s name for a run of this domain."""
+    from planning.world.results import results_file
+
+    return results_file(run_name, domain, layout)
+
+
+def rl_suffix(model) -> str:
+    """What the names of a domain's RL runs end with: the mark of its task encoding where domain.toml [training]
+    names another than the thesis's (`learning.q.training.bound_suffix`), else ''."""
+    from learning.encoding import domain_task_features
+    from learning.q.training import bound_suffix
+
+    return bound_suffix({"task_features": domain_task_features(model)})
+
+
+def rl_seeds(domain: str, layout: str, horizon: str, suffix: str = "") -> list[int]:
+    """The seeds of `checkpoints/<prefix>rl-<horizon>-<layout>-seed<N><suffix>.pt` trained on this domain (the
+    prefix is `planning.world.results.file_prefix`'s; the domain is the PDDL name the checkpoint records, and one
+    that records none is counted)."""
+    from learning.q.checkpoints import read_checkpoint
+    from planning.errors import DomainError
+    from planning.world.results import file_prefix
+
+    name = f"{file_prefix(domain)}rl-{horizon}-{layout}-seed"
+    seeds = []
+    for path in Path("checkpoints").glob(f"{name}*{suffix}.pt"):
+        m = re.fullmatch(rf"{re.escape(name)}(\d+){re.escape(suffix)}", path.stem)
+        if not m:
+            continue
+        try:
+            recorded = read_checkpoint(path).get("domain")
+        except DomainError:
+            continue
+        if recorded in (None, domain):
+            seeds.append(int(m.group(1)))
+    return sorted(seeds)
 
 
 def gnn_model(variant: str, layout: str, seed: int) -> str:

@@ -26,12 +26,13 @@ Everything a row lacks is listed with the commands that train and evaluate it.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from experiments.report.data import RowResult, improvement, load_rows
-from experiments.report.specs import LEAST_SEEDS, Row, Run, rl_checkpoint, rl_run_dir, rl_train
+from experiments.report.specs import LEAST_SEEDS, Row, Run, results_name, rl_seeds, rl_suffix
 from experiments.report.tables import num, pct, pm, share, statistics, table
 
 FORGET = 0.95
@@ -60,49 +61,96 @@ def _suffix(stream: str) -> str:
     return "" if stream == "iid" else f"-stream-{stream}"
 
 
-def _est_run(layout: str, stream: str, name: str, forget: float, s) -> Run:
+@dataclass(frozen=True)
+class Names:
+    """How one layout of a domain names the section's files and commands: what `experiments.evaluate`,
+    `learning.dqn` and `learning.export` name them by default (`specs.results_name`; the restaurant's names carry
+    no domain and its commands no --domain), and the seeds of the thesis's agent there."""
+
+    folder: str  # the domain folder
+    domain: str  # its PDDL name
+    layout: str
+    mark: str  # the task encoding's mark, where not the thesis's (`specs.rl_suffix`)
+    iid_seeds: tuple
+
+    @property
+    def flag(self) -> tuple:
+        """--domain FOLDER, but for the domain whose files carry no prefix (the default one)."""
+        from planning.world.results import file_prefix
+
+        return ("--domain", self.folder) if file_prefix(self.domain) else ()
+
+    def out(self, run: str) -> str:
+        return results_name(self.domain, run, self.layout)
+
+    def trained(self, s, tail: str = "", train_flags: str = "") -> tuple[str, str]:
+        """(checkpoint, command that trains and exports it) of the anticipatory value of seed `s` whose run name
+        ends in `tail` (`learning.q.training.bound_suffix` after the task encoding's mark)."""
+        from planning.world.results import file_prefix
+
+        ckpt = f"checkpoints/{file_prefix(self.domain)}rl-anticipatory-{self.layout}-seed{s}{self.mark}{tail}.pt"
+        train = (
+            f"python -m learning.dqn{''.join(' ' + x for x in self.flag)} --layout {self.layout} --horizon anticipatory "
+            f"--seed {s}{train_flags} && python -m learning.export "
+            f"runs/dqn/{self.domain}-{self.layout}-anticipatory-seed{s}{self.mark}{tail}"
+        )
+        return ckpt, train
+
+
+def names(ctx, layout: str, iid_seeds=None) -> Names:
+    """The layout's `Names`; the thesis's agent's seeds are `iid_seeds(layout)` where given, else those trained
+    (`specs.rl_seeds`) and at least `LEAST_SEEDS`."""
+    model = ctx.model(layout)
+    mark = rl_suffix(model)
+    seeds = (
+        iid_seeds(layout) if iid_seeds else sorted({*LEAST_SEEDS, *rl_seeds(model.name, layout, "anticipatory", mark)})
+    )
+    return Names(str(ctx.domain), model.name, layout, mark, tuple(seeds))
+
+
+def _flags(name: str, forget: float) -> str:
+    return f"--estimator {name}" + ("" if forget == 1.0 else f" --estimator-forget {forget:g}")
+
+
+def _est_run(n: Names, stream: str, name: str, forget: float, s) -> Run:
     """The anticipatory agent trained on the stream with an estimator, deployed with the same one."""
-    est = f"-est-{estimator_label(name, forget)}"
-    tag = f"{_suffix(stream)}{est}"
-    ckpt = f"checkpoints/rl-anticipatory-{layout}-seed{s}{tag}.pt"
-    flags = f"--estimator {name}" + ("" if forget == 1.0 else f" --estimator-forget {forget:g}")
-    train_flags = ("" if stream == "iid" else f" --stream {stream}") + f" {flags}"
-    train = (
-        f"python -m learning.dqn --layout {layout} --horizon anticipatory --seed {s}{train_flags} && "
-        f"python -m learning.export {rl_run_dir('anticipatory', layout, s)}{tag}"
-    )
-    options = ("--checkpoint", ckpt, *flags.split(), *(() if stream == "iid" else ("--stream", stream)))
-    return Run(
-        "rl-guided", layout, options, f"results/rl-guided-anticipatory-{layout}-seed{s}{tag}.json", s, ckpt, train
-    )
+    tag = f"{_suffix(stream)}-est-{estimator_label(name, forget)}"
+    flags = _flags(name, forget)
+    ckpt, train = n.trained(s, tag, ("" if stream == "iid" else f" --stream {stream}") + f" {flags}")
+    options = (*n.flag, "--checkpoint", ckpt, *flags.split(), *(() if stream == "iid" else ("--stream", stream)))
+    out = n.out(f"rl-guided-anticipatory-{n.layout}-seed{s}{n.mark}{tag}")
+    return Run("rl-guided", n.layout, options, out, s, ckpt, train)
 
 
-def _iid_run(layout: str, stream: str, s) -> Run:
+def _iid_run(n: Names, stream: str, s) -> Run:
     """The thesis's agent (i.i.d.-trained value, the layout's P) played on the stream's sequences."""
-    ckpt = rl_checkpoint("anticipatory", layout, s)
-    options = ("--checkpoint", ckpt, *(() if stream == "iid" else ("--stream", stream)))
-    out = f"results/rl-guided-anticipatory-{layout}-seed{s}{_suffix(stream)}.json"
-    return Run("rl-guided", layout, options, out, s, ckpt, rl_train("anticipatory", layout, s))
+    ckpt, train = n.trained(s)
+    options = (*n.flag, "--checkpoint", ckpt, *(() if stream == "iid" else ("--stream", stream)))
+    out = n.out(f"rl-guided-anticipatory-{n.layout}-seed{s}{n.mark}{_suffix(stream)}")
+    return Run("rl-guided", n.layout, options, out, s, ckpt, train)
 
 
-def _deploy_run(layout: str, stream: str, name: str, forget: float, s) -> Run:
+def _deploy_run(n: Names, stream: str, name: str, forget: float, s) -> Run:
     """The thesis's agent (the i.i.d.-trained value) deployed with an estimator: the search's terminal score
     conditioned or learned, the value as trained (what the estimator buys without retraining)."""
-    ckpt = rl_checkpoint("anticipatory", layout, s)
-    flags = f"--estimator {name}" + ("" if forget == 1.0 else f" --estimator-forget {forget:g}")
-    options = ("--checkpoint", ckpt, *flags.split(), *(() if stream == "iid" else ("--stream", stream)))
-    out = (
-        f"results/rl-guided-anticipatory-{layout}-seed{s}{_suffix(stream)}-deploy-{estimator_label(name, forget)}.json"
+    ckpt, train = n.trained(s)
+    options = (
+        *n.flag,
+        "--checkpoint",
+        ckpt,
+        *_flags(name, forget).split(),
+        *(() if stream == "iid" else ("--stream", stream)),
     )
-    return Run("rl-guided", layout, options, out, s, ckpt, rl_train("anticipatory", layout, s))
+    label = estimator_label(name, forget)
+    out = n.out(f"rl-guided-anticipatory-{n.layout}-seed{s}{n.mark}{_suffix(stream)}-deploy-{label}")
+    return Run("rl-guided", n.layout, options, out, s, ckpt, train)
 
 
-def rows(layout: str, stream: str, kind: str) -> list[Row]:
+def rows(n: Names, stream: str, kind: str) -> list[Row]:
     """The section's rows for one layout and stream (see the module)."""
-    from experiments.report.specs import RL_SEEDS
     from oracles.clairvoyant import run_name  # the oracle's own file name; a heavy import, so here
 
-    extra = () if stream == "iid" else ("--stream", stream)
+    layout, extra = n.layout, (() if stream == "iid" else ("--stream", stream))
     out = [
         Row(
             "myopic-oracle",
@@ -112,8 +160,8 @@ def rows(layout: str, stream: str, kind: str) -> list[Row]:
                 Run(
                     "myopic-oracle",
                     layout,
-                    ("--planner", "internal", *extra),
-                    f"results/myopic-oracle-internal-{layout}{_suffix(stream)}.json",
+                    (*n.flag, "--planner", "internal", *extra),
+                    n.out(f"myopic-oracle-internal-{layout}{_suffix(stream)}"),
                 ),
             ),
         ),
@@ -126,8 +174,8 @@ def rows(layout: str, stream: str, kind: str) -> list[Row]:
                     Run(
                         "clairvoyant",
                         layout,
-                        ("--K", str(k), "--time-limit", "60", *extra),
-                        f"results/{run_name(k)}-{layout}{_suffix(stream)}.json",
+                        (*n.flag, "--K", str(k), "--time-limit", "60", *extra),
+                        n.out(f"{run_name(k)}-{layout}{_suffix(stream)}"),
                     ),
                 ),
             )
@@ -137,9 +185,9 @@ def rows(layout: str, stream: str, kind: str) -> list[Row]:
             "iid-agent",
             "Anticipatory RL (guided), i.i.d. P (the thesis's)",
             layout,
-            tuple(_iid_run(layout, stream, s) for s in RL_SEEDS[layout]),
+            tuple(_iid_run(n, stream, s) for s in n.iid_seeds),
             seeded=True,
-            template=_iid_run(layout, stream, "$N"),
+            template=_iid_run(n, stream, "$N"),
         ),
     ]
     kinds = (
@@ -154,23 +202,33 @@ def rows(layout: str, stream: str, kind: str) -> list[Row]:
                     f"{prefix}-{label}",
                     f"Anticipatory RL (guided), {how} {label}",
                     layout,
-                    tuple(run(layout, stream, name, forget, s) for s in LEAST_SEEDS),
+                    tuple(run(n, stream, name, forget, s) for s in LEAST_SEEDS),
                     seeded=True,
-                    template=run(layout, stream, name, forget, "$N"),
+                    template=run(n, stream, name, forget, "$N"),
                 )
             )
     return out
 
 
-def load_specs(ctx, layouts) -> list[list[Row]]:
-    """The rows of every layout and stream (what `experiments.reproduce --streams` plays)."""
-    return [rows(layout, s, kind) for layout in layouts for s, kind in stream_names(ctx.model(layout))]
+def declared(ctx, layouts) -> bool:
+    """Whether any of the layouts has a stream besides the i.i.d. one (the section's reason to be)."""
+    return any(kind != "iid" for layout in layouts for _, kind in stream_names(ctx.model(layout)))
 
 
-def load(ctx, layouts) -> dict:
+def load_specs(ctx, layouts, iid_seeds=None) -> list[list[Row]]:
+    """The rows of every layout and stream (what `experiments.reproduce --streams` plays; `iid_seeds` as for
+    `names`)."""
+    return [
+        rows(names(ctx, layout, iid_seeds), s, kind)
+        for layout in layouts
+        for s, kind in stream_names(ctx.model(layout))
+    ]
+
+
+def load(ctx, layouts, iid_seeds=None) -> dict:
     """{(layout, stream, kind): {row key: RowResult}} for every layout and stream."""
     return {
-        (layout, stream, kind): load_rows(rows(layout, stream, kind), ctx)
+        (layout, stream, kind): load_rows(rows(names(ctx, layout, iid_seeds), stream, kind), ctx)
         for layout in layouts
         for stream, kind in stream_names(ctx.model(layout))
     }
@@ -221,13 +279,14 @@ def by_position(rr: RowResult) -> np.ndarray | None:
 
 
 def after_change(rows: dict, change: int) -> list[str]:
-    """The mean cost per task from position `change` on (the last phase), per row that has one."""
-    body = []
+    """The mean cost per task before position `change` and from it on (the last phase), per row that has one."""
+    body, last = [], 0
     for rr in rows.values():
         pos = by_position(rr)
         if pos is not None and len(pos) > change:
             body.append([rr.row.label, num(float(pos[:change].mean())), num(float(pos[change:].mean()))])
-    return table(["method", f"tasks 0–{change - 1}", f"tasks {change}–49"], body) if body else []
+            last = max(last, len(pos) - 1)
+    return table(["method", f"tasks 0–{change - 1}", f"tasks {change}–{last}"], body) if body else []
 
 
 def from_position(rr: RowResult, start: int) -> RowResult:
@@ -265,6 +324,7 @@ def figure(ctx, results: dict, folder: Path, tracked: dict) -> dict:
     stream's rows, above how far each estimate is from the stream there (`tracked[(layout, stream)]`, from
     `estimates`, over task instances; a vertical line at each phase's start)."""
     from experiments.report.figures import _save, plt
+    from planning.world.results import file_prefix
 
     out = {}
     for (layout, stream, kind), rows in results.items():
@@ -272,14 +332,14 @@ def figure(ctx, results: dict, folder: Path, tracked: dict) -> dict:
             continue
         lines = [(rr.row.label, by_position(rr)) for rr in rows.values()]
         lines = [(label, y) for label, y in lines if y is not None]
-        path = folder / f"fig-stream-{layout}-{stream}.png"
+        path = folder / f"fig-stream-{file_prefix(ctx.model(layout).name)}{layout}-{stream}.png"
         if not lines:
             out[(layout, stream)] = None
             continue
         fig, (ax, est) = plt.subplots(2, 1, figsize=(7.5, 6.0), sharex=True, height_ratios=(3, 2), layout="constrained")
         for label, y in lines:
             ax.plot(np.arange(len(y)), y, label=label, lw=1.2)
-        for label, d in tracked[(layout, stream)][1].items():
+        for label, d in (tracked[(layout, stream)] or (0, {}))[1].items():
             est.plot(np.arange(1, len(d["instances"]) + 1), d["instances"], label=label, lw=1.2)
         for a in (ax, est):
             for start in phase_starts(ctx, layout, stream):
@@ -301,16 +361,20 @@ def phase_starts(ctx, layout: str, stream: str) -> list[int]:
     return [f for f, _ in stream_of(ctx.model(layout), stream).phases[1:]]
 
 
-def estimates(ctx, layout: str, stream: str, kind: str) -> tuple[int, dict]:
+def estimates(ctx, layout: str, stream: str, kind: str) -> tuple[int, dict] | None:
     """(sequences, {estimate's label: `planning.world.estimators.tracking` of it}) on the stream's canonical
-    sequences: the known P and each estimator tried on this kind of stream, fed as the guided agent feeds them."""
+    sequences: the known P and each estimator tried on this kind of stream, fed as the guided agent feeds them
+    (None where the sequences are not written yet)."""
     from planning.world import sequences
     from planning.world.estimators import build, tracking
     from planning.world.streams import stream as stream_of
 
     model = ctx.model(layout)
     s = stream_of(model, stream)
-    tasks = [q.tasks for q in sequences.load(model, stream_name=None if stream == "iid" else stream)]
+    name = None if stream == "iid" else stream
+    if not any(sequences.sequence_dir(model, name).glob("seq-*.json")):
+        return None
+    tasks = [q.tasks for q in sequences.load(model, stream_name=name)]
     out = {}
     for name, forget in [("known", 1.0), *ESTIMATORS[kind]]:
         label = "known P (the thesis's)" if name == "known" else estimator_label(name, forget)
@@ -318,10 +382,20 @@ def estimates(ctx, layout: str, stream: str, kind: str) -> tuple[int, dict]:
     return len(tasks), out
 
 
-def tracking_table(ctx, layout: str, stream: str, tracked: tuple[int, dict]) -> list[str]:
+def tracking_table(ctx, layout: str, stream: str, tracked: tuple[int, dict] | None) -> list[str]:
     """How far each estimate is from the stream's own next-task distribution on its canonical sequences
     (`tracked`, from `estimates`: a fresh estimate per sequence), at a few positions: around the last phase's
-    start on a drifting stream, along the sequence otherwise."""
+    start on a drifting stream, along the sequence otherwise; the command that writes the sequences where
+    there are none."""
+    if tracked is None:
+        from planning.world.sequences import sequence_dir
+
+        where = sequence_dir(ctx.model(layout), None if stream == "iid" else stream)
+        return [
+            f"No canonical sequences of this stream in `{where}` (every row needs them): `python -m "
+            f"planning.world.sequences --domain {ctx.domain} --layout {layout} --stream {stream}` writes them.",
+            "",
+        ]
     n, curves = tracked
     starts = phase_starts(ctx, layout, stream)
     change, last = (starts[-1] if starts else None), len(next(iter(curves.values()))["types"])
@@ -342,6 +416,13 @@ def tracking_table(ctx, layout: str, stream: str, tracked: tuple[int, dict]) -> 
         *table(["estimate", *(f"p = {p}" for p in positions), f"mean, p = 1–{last}"], body),
         "",
     ]
+
+
+def sequence_length(tracked: tuple[int, dict] | None) -> int:
+    """The length of the canonical sequences `estimates` tracked (theirs where written, else the default)."""
+    from planning.world.sequences import LENGTH
+
+    return LENGTH if tracked is None else len(next(iter(tracked[1].values()))["types"]) + 1
 
 
 def missing(results: dict) -> list[str]:
@@ -365,18 +446,21 @@ def _dataset_command(c: dict, d: dict) -> str:
     )
 
 
-def ranking(layout: str, stream: str) -> list[str]:
+def ranking(domain: str, layout: str, stream: str) -> list[str]:
     """How much conditioning on the stream can reorder states, and how the values rank by the conditional
     C_AP with and without it (`results/value-rank-*.json` made with `learning.values.rank --stream`)."""
     from experiments.report.data import read_finished
+    from planning.world.results import file_prefix
 
-    lines = []
-    for path in sorted(Path("results").glob("value-rank-*.json")):
+    lines, prefix = [], file_prefix(domain)
+    for path in sorted(Path("results").glob(f"{prefix}value-rank-*.json")):
         d = read_finished(path) or {}
         c = d.get("conditional") or {}
         if d.get("layout") != layout or c.get("stream") != stream:
             continue
-        names = [Path(e["value"]).stem.replace(f"rl-anticipatory-{layout}-", "") for e in c["contexts"][0]["values"]]
+        values = [
+            Path(e["value"]).stem.replace(f"{prefix}rl-anticipatory-{layout}-", "") for e in c["contexts"][0]["values"]
+        ]
         body = []
         for row in c["contexts"]:
             likeliest = max(row["next_types"], key=row["next_types"].get)
@@ -398,7 +482,7 @@ def ranking(layout: str, stream: str) -> list[str]:
             f"next-task distribution (`{path.name}`; Spearman): the exact C_AP under the layout's P, then each "
             "value's V_AP with P → with the context's distribution.",
             "",
-            *table(["context", "likeliest next type", "exact C_AP under P", *(f"`{n}`" for n in names)], body),
+            *table(["context", "likeliest next type", "exact C_AP under P", *(f"`{v}`" for v in values)], body),
             "",
             "Conditioning helps a search only as far as it reorders the states it compares: the exact column says "
             "how much it reorders these states at all (1: not at all), however good the value; a value gains from "
@@ -428,27 +512,27 @@ def section(ctx, results: dict, folder: Path) -> list[str]:
         "sequence, fed every task posed; `experiments.report.streams`). The tests compare each estimator row "
         "with the thesis's agent as §5.4.3 does (and each forgetting row with its stationary twin), and again on "
         "the seeds both rows have where their seed sets "
-        "differ (the thesis's agent has five seeds, an estimator row three: a difference of seeds is not one of "
-        "estimators).",
+        f"differ (the thesis's agent can have more seeds than an estimator row's {len(LEAST_SEEDS)}: a difference of "
+        "seeds is not one of estimators).",
         "",
     ]
     for (layout, stream, kind), rows in results.items():
         lines += [f"### {layout}, stream {stream} ({kind})", "", *stream_table(rows), ""]
         pairs = [(k, "iid-agent") for k in rows if k.startswith(("est-", "dep-"))] + forgetting_pairs(rows)
         lines += [*_tests({f"{layout}, {stream}": rows}, pairs), ""]
-        lines += ranking(layout, stream)
+        lines += ranking(ctx.model(layout).name, layout, stream)
         lines += tracking_table(ctx, layout, stream, tracked[(layout, stream)])
         if kind == "drift":
             starts = phase_starts(ctx, layout, stream)
             if starts:
-                change = starts[-1]
+                change, last = starts[-1], sequence_length(tracked[(layout, stream)]) - 1
                 cut = {key: from_position(rr, change) for key, rr in rows.items()}
                 lines += [*after_change(rows, change), ""]
                 lines += [
                     f"The same tests on the tasks from the last phase's start on (position {change} on): does "
                     "forgetting win after the change?",
                     "",
-                    *_tests({f"{layout}, {stream}, tasks {change}–49": cut}, forgetting_pairs(rows)),
+                    *_tests({f"{layout}, {stream}, tasks {change}–{last}": cut}, forgetting_pairs(rows)),
                     "",
                 ]
             path = drawn.get((layout, stream))

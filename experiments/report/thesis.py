@@ -18,7 +18,15 @@ import numpy as np
 from experiments.report import figures as figs
 from experiments.report import provenance, reference, streams, tables
 from experiments.report.data import Context, curve, improvement, load_rows, sha256
-from experiments.report.specs import AGENTS, THESIS, THESIS_MINIMAL, discount_runs, rl_run_dir, training_logs
+from experiments.report.specs import (
+    AGENTS,
+    RL_SEEDS,
+    THESIS,
+    THESIS_MINIMAL,
+    discount_runs,
+    rl_run_dir,
+    training_logs,
+)
 from experiments.report.specs import rows as row_specs
 from planning.world.preparation import Preparation
 
@@ -278,7 +286,7 @@ def report(layouts, ctx: Context, out: Path, command: str) -> str:
                 ]
     lines += ["## Table A.5: the discount sweep (optional)", "", *tables.discount_table(prep), ""]
     lines += ["## Task streams: unknown, drifting and correlated (beyond the thesis)", ""]
-    stream_results = streams.load(ctx, layouts)
+    stream_results = streams.load(ctx, layouts, RL_SEEDS.__getitem__)  # Appendix A.1's seeds
     lines += streams.section(ctx, stream_results, folder)
     ckpts = [
         str(p)

@@ -13,7 +13,7 @@ from scipy import stats as sps
 from experiments import stats
 from experiments.report import figures as figs
 from experiments.report.data import Context, load_run
-from experiments.report.specs import Row, Run
+from experiments.report.specs import RL_SEEDS, Row, Run
 from experiments.report.thesis import report
 from experiments.reproduce import needs_run, run_missing
 from planning.world.sequences import Sequence
@@ -391,7 +391,9 @@ def test_stream_rows_name_the_files_the_trainer_exports_and_the_evaluation_write
         ("cook-then-clean", "markov"),
         ("lunch-rush", "drift"),
     ]
-    rows = {r.key: r for r in streams.rows("three-room", "lunch-rush", "drift")}
+    rows = {
+        r.key: r for r in streams.rows(streams.names(ctx, "three-room", RL_SEEDS.__getitem__), "lunch-rush", "drift")
+    }
     assert list(rows) == [
         "myopic-oracle",
         "clairvoyant-2",
@@ -426,7 +428,7 @@ def test_stream_rows_name_the_files_the_trainer_exports_and_the_evaluation_write
     assert run.command.endswith(
         f"--estimator empirical --estimator-forget 0.95 --stream lunch-rush --out results/rl-guided-{rl_name(cfg)}.json"
     )
-    iid = {r.key: r for r in streams.rows("two-room", "iid", "iid")}
+    iid = {r.key: r for r in streams.rows(streams.names(ctx, "two-room", RL_SEEDS.__getitem__), "iid", "iid")}
     assert [r.out for r in iid["iid-agent"].runs] == [
         f"results/rl-guided-anticipatory-two-room-seed{s}.json" for s in (0, 4, 8, 16)
     ]  # Table 5.2's own files

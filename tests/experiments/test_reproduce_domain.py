@@ -354,3 +354,64 @@ def test_the_beta_selection_is_reported_with_every_candidate(minimal_copy):
         "| grid | `minimal-rl-anticipatory-grid-seed0.pt` | β 1.25: 812.3 (100%); **β 3: 799.0 (98%)** | 3 "
         "| `results/beta-selection-minimal-rl-anticipatory-grid-seed0.json` |"
     ]
+
+
+def test_a_domain_that_declares_streams_gets_their_section(minimal_copy, monkeypatch):
+    """A domain folder with a Markov and a drifting stream (the grid's `alternate` and `shift`) is reported as
+    the restaurant's streams are: a table per layout and stream whose runs and commands name the domain, our
+    myopic oracle played on the Markov stream's sequences, and the command that writes the drifting stream's
+    sequences where they are not written yet."""
+    from experiments.report import streams
+    from tests.conftest import declare_grid_streams
+
+    declare_grid_streams(minimal_copy / "minimal")
+    model = compile_domain(str(minimal_copy / "minimal"), "grid")
+    for name in (None, "alternate"):
+        for rec in generate(model, stream_name=name):
+            write_json(sequence_dir(model, name) / f"seq-{rec['id']:02d}.json", rec)
+    ctx = Context("minimal")
+    rows = {r.key: r for r in streams.rows(streams.names(ctx, "grid"), "alternate", "markov")}
+    assert list(rows) == [
+        "myopic-oracle",
+        "clairvoyant-2",
+        "clairvoyant-3",
+        "iid-agent",
+        "dep-markov",
+        "dep-markov-empirical",
+        "est-markov",
+        "est-markov-empirical",
+    ]
+    assert [run.seed for run in rows["iid-agent"].runs] == list(LEAST_SEEDS)  # none trained yet
+    run = rows["est-markov"].runs[0]
+    assert run.checkpoint == "checkpoints/minimal-rl-anticipatory-grid-seed0-stream-alternate-est-markov.pt"
+    assert run.command == (
+        "python -m experiments.evaluate --agent rl-guided --layout grid --domain minimal --checkpoint "
+        f"{run.checkpoint} --estimator markov --stream alternate --out "
+        "results/minimal-rl-guided-anticipatory-grid-seed0-stream-alternate-est-markov.json"
+    )
+    assert run.train == (
+        "python -m learning.dqn --domain minimal --layout grid --horizon anticipatory --seed 0 --stream alternate "
+        "--estimator markov && python -m learning.export "
+        "runs/dqn/minimal-grid-anticipatory-seed0-stream-alternate-est-markov"
+    )
+    out = "results/minimal-myopic-oracle-internal-grid-stream-alternate.json"
+    assert reproduce.run_missing([rows["myopic-oracle"]], ctx, ids=[0, 1], progress=False) == [out]
+    data = json.loads(Path(out).read_text())
+    assert data["config"]["stream"] == "alternate"
+
+    assert run_reproduce(monkeypatch, "--domain", "minimal", "--report-only") == 0
+    text = (minimal_copy / "docs" / "results-minimal.md").read_text()
+    section = text.split("## Task streams: unknown, drifting and correlated\n")[1].split("## Not applicable")[0]
+    blocks = dict(b.split("\n", 1) for b in section.split("### grid, stream ")[1:])
+    assert list(blocks) == ["iid (iid)", "alternate (markov)", "shift (drift)"]
+    line = next(x for x in blocks["alternate (markov)"].splitlines() if x.startswith("| Myopic oracle"))
+    assert line.startswith(f"| Myopic oracle (optimal, internal A*) | {data['cost_per_task']:,.1f} | (reference)")
+    assert "How far each estimate is from the stream's own next-task distribution" in blocks["alternate (markov)"]
+    assert (
+        "`python -m planning.world.sequences --domain minimal --layout grid --stream shift` writes them"
+        in blocks["shift (drift)"]
+    )
+    missing = section.split("### Stream runs not yet made")[1]
+    assert "--domain minimal --checkpoint checkpoints/minimal-rl-anticipatory-grid-seed$N-stream-shift" in missing
+    assert "declares no stream" not in text
+    assert f"`{Path(out).name}`" in text.split("## Provenance of the results files")[1]

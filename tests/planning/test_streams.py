@@ -16,35 +16,16 @@ from planning.world import sequences
 from planning.world.estimators import build, tracking
 from planning.world.streams import stationary, stream, streams
 from planning.world.task_stream import TaskStream, draw_tasks
-from tests.conftest import MINIMAL
+from tests.conftest import MINIMAL, declare_grid_streams
 
 ROOT = Path(__file__).resolve().parents[2]
-
-GRID_STREAMS = """
-[streams.alternate]
-kind = "markov"
-[streams.alternate.transitions]
-clear = { deliver = 0.9, clear = 0.1 }
-deliver = { clear = 0.5, deliver = 0.5 }
-
-[streams.shift]
-kind = "drift"
-blend = "BLEND"
-phases = [
-  { from = 0, types = { clear = 1.0 } },
-  { from = 10, types = { deliver = 1.0 } },
-]
-"""
 
 
 def grid_with_streams(tmp_path, blend="step", extra=""):
     """The minimal grid domain with both task types drawn (clear 0.3, deliver 0.7) and two streams."""
     folder = tmp_path / "grid"
     shutil.copytree(ROOT / MINIMAL, folder)
-    toml = (folder / "domain.toml").read_text()
-    toml = toml.replace("[tasks.clear]\nprobability = 0.0", "[tasks.clear]\nprobability = 0.3")
-    toml = toml.replace("[tasks.deliver]\nprobability = 1.0", "[tasks.deliver]\nprobability = 0.7")
-    (folder / "domain.toml").write_text(toml + GRID_STREAMS.replace("BLEND", blend) + extra)
+    declare_grid_streams(folder, blend, extra)
     return compile_domain(folder, "grid")
 
 
