@@ -132,10 +132,11 @@ class Config:
     estimator: str = "known"
     """the task distribution of the anticipatory target's boundary, Σ P(τ'|·) Q(s', τ', ·) (planning.world.estimators):
     known (the layout's i.i.d. P, the thesis's), empirical (counts of the stream seen, with a prior and forgetting),
-    markov (the stream's P(τ'|τ)), markov-empirical (transition counts); another than known keeps its files
-    apart (-est-<name>)"""
+    markov (the stream's P(τ'|τ)), markov-empirical (type transition counts times argument counts); another than
+    known keeps its files apart (-est-<name>)"""
     estimator_prior: float = 1.0
-    """empirical estimators: pseudo-counts of the uniform prior over the support (per row for markov-empirical)"""
+    """empirical estimators: pseudo-counts of the uniform prior over the support (and, for markov-empirical, of each
+    transition row's over the types)"""
     estimator_forget: float = 1.0
     """empirical estimators: every count decays by this factor per task seen (1: a plain average)"""
     task_features: str = "arguments"

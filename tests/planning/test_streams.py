@@ -176,9 +176,17 @@ def test_the_markov_estimators_condition_on_the_task_before(tmp_path):
     learned.observe(c)
     after_c, after_b = learned.probabilities(c), learned.probabilities(b)
     assert after_c.sum() == pytest.approx(1.0) and after_b.sum() == pytest.approx(1.0)
-    assert after_c[b.index] == pytest.approx(3 / 5)  # c -> b twice, plus 1 pseudo-count in 5
-    assert after_b[c.index] == pytest.approx(3 / 5)  # b -> c twice (one after the restart), b -> b never
-    assert learned.counts.sum() == 4
+    # types: clear -> deliver twice, deliver -> clear twice (one after the restart), each row with 1.5 of the 3
+    # pseudo-counts on each type; arguments: c 3, b 3, a 0 seen, plus 1 each, so deliver(b) is 4/5 of deliveries
+    assert learned.transitions.sum() == 4 and learned.counts.sum() == 6
+    assert after_c[b.index] == pytest.approx(3.5 / 5 * 4 / 5)
+    assert after_c[c.index] == pytest.approx(1.5 / 5)
+    assert after_b[c.index] == pytest.approx(3.5 / 5)
+    a = model.tasks.get("deliver(a)")
+    assert after_b[a.index] == pytest.approx(1.5 / 5 * 1 / 5)
+    resumed = build("markov-empirical", model, prior=3.0)
+    resumed.load_state_dict(learned.state_dict())
+    assert np.array_equal(resumed.probabilities(c), after_c) and resumed.last == c
 
 
 def test_tracking_measures_how_far_an_estimate_is_from_the_stream(tmp_path):
@@ -203,3 +211,14 @@ def test_tracking_measures_how_far_an_estimate_is_from_the_stream(tmp_path):
     drawn = draw_tasks(model, 5, 30, alternate)
     exact = tracking(lambda: build("markov", model, alternate), alternate, [drawn])
     assert np.array_equal(exact["instances"], np.zeros(29))  # the known table is the stream's own
+
+
+def test_a_type_never_drawn_gets_no_probability_from_the_learned_estimators(minimal):
+    """The minimal grid draws deliveries only (clear has P = 0): every estimate is zero on clear, finite, and
+    sums to one, before and after tasks are seen."""
+    deliver = next(t for t in minimal.tasks if t.type == "deliver")
+    for name in ("empirical", "markov-empirical"):
+        est = build(name, minimal)
+        for p in (est.probabilities(), est.observe(deliver) or est.probabilities(deliver)):
+            assert np.isfinite(p).all() and p.sum() == pytest.approx(1.0)
+            assert all(p[t.index] == 0 for t in minimal.tasks if t.type == "clear")
