@@ -25,7 +25,7 @@ from planning.atomic import write_json
 from planning.domain.compiler import compile_domain
 from planning.errors import DomainError
 from planning.parallel import results_provenance
-from planning.world.results import default_out
+from planning.world.results import default_out, read
 from planning.world.runner import evaluate, improvement
 from planning.world.sequences import COUNT, DEVELOPMENT
 
@@ -53,6 +53,27 @@ def split_costs(model, result: dict) -> dict:
     return out
 
 
+def kept_apart(out: str, model, checkpoint: str, betas: list, budget) -> None:
+    """A one-line error where `out` holds a finished selection made otherwise (another layout, checkpoint,
+    budget or set of candidates): a finished results file is never replaced by a run with another
+    configuration (pass --out)."""
+    if not Path(out).is_file():
+        return
+    old = read(Path(out), "β selection")
+    made = (
+        old.get("layout"),
+        old.get("checkpoint"),
+        old.get("budget"),
+        [c.get("beta") for c in old.get("candidates", [])],
+    )
+    if made != (model.layout, checkpoint, budget, betas):
+        raise DomainError(
+            out,
+            f"holds the selection of layout {made[0]}, checkpoint {made[1]}, budget {made[2]}, β "
+            f"{', '.join(f'{b:g}' for b in made[3])}; pass --out to keep both",
+        )
+
+
 def main() -> None:
     p = cli.parser(__doc__.splitlines()[0])
     p.add_argument("--checkpoint", required=True, help="Q-network checkpoint whose value guides the search")
@@ -69,6 +90,7 @@ def main() -> None:
         raise DomainError("--betas", f"'{args.betas}' is not a comma-separated list of numbers") from None
     model = compile_domain(args.domain, args.layout)
     out = args.out or f"results/beta-selection-{Path(args.checkpoint).stem}.json"
+    kept_apart(out, model, args.checkpoint, betas, args.budget)
     rows = []
     for beta in betas:
         agent = ValueGuidedPlanner(model, args.checkpoint, beta=beta, budget=args.budget)
@@ -88,6 +110,7 @@ def main() -> None:
         "domain": model.name,
         "layout": model.layout,
         "checkpoint": args.checkpoint,
+        "budget": args.budget,
         "development": list(DEVELOPMENT),
         "candidates": rows,
         "chosen_beta": best["beta"],

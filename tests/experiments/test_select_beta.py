@@ -1,5 +1,7 @@
 """β selection reports the development and held-out splits apart, each against the myopic oracle."""
 
+import pytest
+
 from experiments.select_beta import split_costs
 
 
@@ -62,3 +64,10 @@ def test_the_candidates_files_are_named_as_the_agents_own(tmp_path, monkeypatch)
     files = [c["file"] for c in chosen["candidates"]]
     assert [Path(f).name.startswith("minimal-rl-guided-") for f in files] == [True, True]
     assert all(Path(f).is_file() for f in files) and chosen["chosen_beta"] in (1.0, 2.0)
+    # the same selection again is played from its files and rewritten; one with other candidates is refused
+    cli.run(select_beta.main)
+    monkeypatch.setattr(sys, "argv", [*argv[:-4], "--betas", "1,3", "--budget", "50", "--no-final"])
+    with pytest.raises(SystemExit) as e:
+        cli.run(select_beta.main)
+    assert e.value.code == 2
+    assert json.loads(Path("results/beta-selection-v.json").read_text())["candidates"] == chosen["candidates"]
